@@ -1,0 +1,395 @@
+"""Regime classification of stroboscopic (Poincare) samples.
+
+:func:`classify` labels a post-transient Poincare sample set as ``"periodic"``
+(with its period ``m``), ``"quasi-periodic"`` or ``"chaotic"`` from several
+indicators and returns them all, with a sentence saying why, so a reader of the
+regime map can check each label.  The decision rule and its thresholds are
+described in ``docs/classification.md``.
+
+Indicators
+----------
+1. Period test (:func:`analysis.poincare.detect_period`): smallest ``m`` with
+   ``|x_{i+lm} - x_i| <= rtol * S`` for all ``i`` and ``l`` (``S`` =
+   per-component spread).
+2. Poincare clusters (:func:`analysis.poincare.cluster_points`): number of
+   single-linkage clusters, their diameter and the period of the cluster
+   itinerary.
+3. 0-1 test for chaos (:func:`analysis.zero_one_test.zero_one_test`) on a
+   scalar observable (first principal component), median ``K`` over 100 random
+   ``c``.
+4. Spectral line test (:func:`analysis.poincare.spectral_lines`): growth
+   exponent ``gamma`` of the effective number of occupied frequency bins with
+   record length (~0 discrete lines, ~1 broadband).
+   If a stationary periodic pattern dominates (banded chaos, period-m x torus),
+   tests 3 and 4 are repeated on the residual after removing it
+   (:func:`analysis.poincare.periodic_pattern`).
+5. Largest Lyapunov exponent, if given, **per forcing period** (i.e. per
+   iteration of the stroboscopic map): ``lle_per_period = lambda_1 * T`` with
+   ``lambda_1`` per unit time and ``T`` the forcing period (``T = 2 pi`` in the
+   nondimensional time ``tau`` of the design brief); see
+   :func:`lle_per_period_from_rate`.
+
+Non-results
+-----------
+:data:`DIVERGED` and :data:`UNSETTLED` are the labels the pipeline uses for grid
+points that cannot be classified (solution blew up / transient not over, see
+:func:`is_settled`).  :func:`classify` itself never returns them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Literal, Mapping
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from analysis.poincare import (
+    MIN_SAMPLES,
+    cluster_points,
+    component_scales,
+    detect_period,
+    periodic_pattern,
+    scalar_observable,
+    spectral_lines,
+    validate_samples,
+)
+from analysis.zero_one_test import zero_one_test
+
+__all__ = [
+    "CHAOTIC",
+    "DIVERGED",
+    "LABELS",
+    "MIN_SAMPLES",
+    "PERIODIC",
+    "QUASI_PERIODIC",
+    "UNSETTLED",
+    "RegimeResult",
+    "classify",
+    "is_settled",
+    "lle_per_period_from_rate",
+]
+
+PERIODIC: str = "periodic"
+QUASI_PERIODIC: str = "quasi-periodic"
+CHAOTIC: str = "chaotic"
+#: The three labels :func:`classify` can return.
+LABELS: tuple[str, str, str] = (PERIODIC, QUASI_PERIODIC, CHAOTIC)
+#: Pipeline non-result: the integration diverged (non-finite or exploding state).
+DIVERGED: str = "diverged"
+#: Pipeline non-result: the transient is not over (see :func:`is_settled`).
+UNSETTLED: str = "unsettled"
+
+Label = Literal["periodic", "quasi-periodic", "chaotic"]
+
+
+@dataclass(frozen=True)
+class RegimeResult:
+    """Result of :func:`classify`.
+
+    Attributes
+    ----------
+    label
+        ``"periodic"``, ``"quasi-periodic"`` or ``"chaotic"``.
+    period
+        ``m`` of a period-``m`` orbit, else ``None``.
+    reason
+        Human-readable explanation of the decision.
+    indicators
+        Read-only mapping of indicator values (see ``docs/classification.md``):
+        ``n_samples``, ``period_test``, ``period_residual``, ``n_clusters``,
+        ``cluster_diameter``, ``cluster_separation``, ``cluster_period``,
+        ``K``, ``K_stride``, ``spectral_growth``, ``spectral_entropy``,
+        ``pattern_period``, ``pattern_explained``, ``K_residual``,
+        ``spectral_growth_residual`` (``None`` when no periodic pattern was
+        removed), ``lle_per_period``.
+    votes
+        Read-only mapping indicator -> verdict (``"periodic"``, ``"regular"``,
+        ``"chaotic"``, ``"lines"``, ``"broadband"``, ``"ambiguous"``,
+        ``"not given"``...).
+    """
+
+    label: Label
+    period: int | None
+    reason: str
+    indicators: Mapping[str, float | int | None] = field(default_factory=dict)
+    votes: Mapping[str, str] = field(default_factory=dict)
+
+
+def lle_per_period_from_rate(lle_per_time: float, forcing_period: float = 2.0 * np.pi) -> float:
+    """Convert a largest Lyapunov exponent per unit time to per forcing period.
+
+    ``lambda_per_period = lambda_per_time * T``; ``T = 2 pi`` for the
+    nondimensional time of the design brief (``tau = Omega t``).
+    """
+    return float(lle_per_time) * float(forcing_period)
+
+
+def is_settled(
+    poincare: ArrayLike,
+    *,
+    rtol: float = 0.1,
+    scale_floor_rtol: float = 0.1,
+) -> bool:
+    r"""Heuristic: has the transient died out in this Poincare record?
+
+    Splits the record into its first and second halves ``A`` and ``B`` and
+    requires, for every component ``j`` (``S_j`` from
+    :func:`analysis.poincare.component_scales` of the whole record):
+
+    .. math::
+
+        |\bar A_j - \bar B_j| \le r S_j,\quad
+        |\sigma(A_j) - \sigma(B_j)| \le r S_j,\quad
+        |q_{0.05}(A_j) - q_{0.05}(B_j)| \le r S_j,\quad
+        |q_{0.95}(A_j) - q_{0.95}(B_j)| \le r S_j,
+
+    with ``r = rtol`` (default 0.1).  On a settled attractor both halves sample
+    the same invariant measure, so mean, spread and extreme quantiles agree; a
+    decaying transient (drift of the mean, shrinking or growing amplitude)
+    violates at least one.  Limitations: a torus whose slowest rotation takes
+    longer than half the record, or intermittent chaos with long laminar
+    phases, can fail the test although settled; a transient much slower than
+    the record (a drift below ``r S`` over the whole record) passes it.
+    """
+    x = validate_samples(poincare, name="poincare", min_samples=8)
+    s = component_scales(x, floor_rtol=scale_floor_rtol)
+    h = x.shape[0] // 2
+    a, b = x[-2 * h : -h], x[-h:]
+    tests = [
+        np.abs(a.mean(axis=0) - b.mean(axis=0)),
+        np.abs(a.std(axis=0) - b.std(axis=0)),
+        np.abs(np.quantile(a, 0.05, axis=0) - np.quantile(b, 0.05, axis=0)),
+        np.abs(np.quantile(a, 0.95, axis=0) - np.quantile(b, 0.95, axis=0)),
+    ]
+    return bool(all(np.all(t <= rtol * s) for t in tests))
+
+
+def classify(
+    poincare: ArrayLike,
+    lle_per_period: float | None = None,
+    *,
+    m_max: int = 32,
+    period_rtol: float = 0.02,
+    scale_floor_rtol: float = 0.1,
+    cluster_tol: float = 0.01,
+    cluster_diameter_max: float = 0.05,
+    max_cluster_points: int = 2000,
+    lle_threshold: float = 0.02,
+    growth_lines: float = 0.3,
+    growth_broadband: float = 0.6,
+    k_chaotic: float = 0.5,
+    observable: Literal["pca"] | int = "pca",
+    zero_one_stride: int | str = "auto",
+    seed: int = 0,
+) -> RegimeResult:
+    """Classify a post-transient stroboscopic record.
+
+    Parameters
+    ----------
+    poincare
+        Samples, shape ``(n_periods, n_components)``, one row per forcing period
+        after the transient; finite; at least :data:`MIN_SAMPLES` rows.
+    lle_per_period
+        Largest Lyapunov exponent **per forcing period** (per map iteration),
+        or ``None``.  Convert a rate per unit time with
+        :func:`lle_per_period_from_rate`.
+    m_max
+        Largest period tested.
+    period_rtol
+        Tolerance of the period test, relative to the per-component scale.
+    scale_floor_rtol
+        Floor of the per-component scale relative to the state magnitude
+        (:func:`analysis.poincare.component_scales`).
+    cluster_tol, cluster_diameter_max, max_cluster_points
+        Single-linkage distance (scaled units), largest cluster diameter for
+        a cluster to count as a *point*, and number of (last) samples clustered.
+        The last ``max_cluster_points`` samples are clustered (memory O(n^2)).
+    lle_threshold
+        ``lle_per_period > lle_threshold`` counts as clearly positive (chaos);
+        ``lle_per_period <= lle_threshold`` rules chaos out.
+    growth_lines, growth_broadband
+        Spectral growth exponent below ``growth_lines`` -> discrete lines; above
+        ``growth_broadband`` -> broadband; in between -> ambiguous.
+    k_chaotic
+        0-1 test: ``K > k_chaotic`` votes chaotic, otherwise regular.
+    observable
+        Scalar observable for the 0-1 and spectral tests (``"pca"`` or column).
+    zero_one_stride
+        Stride for the 0-1 test (``"auto"``: decorrelation stride).
+    seed
+        Seed of the 0-1 test's random ``c`` values.
+
+    Returns
+    -------
+    RegimeResult
+
+    Decision rule
+    -------------
+    1. *Periodic* if the period test finds ``m <= m_max``; otherwise, if the
+       cluster itinerary is periodic with period ``m`` and every cluster is a
+       point (diameter ``<= cluster_diameter_max``), periodic with that ``m``
+       (catches noise above ``period_rtol`` but below the cluster separation).
+    2. Otherwise non-periodic; chaotic vs quasi-periodic.  If a stationary
+       period-``m*`` pattern carries most of the variance
+       (:func:`analysis.poincare.periodic_pattern`; banded chaos, period-m x
+       torus), the spectral growth and ``K`` used below are the larger of the
+       values for the series and for its residual after removing the pattern.
+
+       a. ``lle_per_period`` given: ``> lle_threshold`` -> chaotic, unless both
+          the spectrum shows lines and ``K <= k_chaotic`` (then quasi-periodic,
+          conflict reported); ``<= lle_threshold`` -> quasi-periodic (conflict
+          reported if spectrum and ``K`` both say chaotic).
+       b. Not given: spectrum ``lines`` -> quasi-periodic; ``broadband`` ->
+          chaotic; ``ambiguous`` -> the 0-1 test decides.
+
+    Raises
+    ------
+    ValueError
+        Invalid ``poincare`` (not 2-D, fewer than :data:`MIN_SAMPLES` rows,
+        non-finite) or non-finite ``lle_per_period``.
+    """
+    x = validate_samples(poincare, name="poincare", min_samples=MIN_SAMPLES)
+    if lle_per_period is not None:
+        try:
+            lle = float(lle_per_period)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"lle_per_period must be a float or None: {exc}") from exc
+        if not np.isfinite(lle):
+            raise ValueError(f"lle_per_period must be finite; got {lle_per_period!r}")
+    else:
+        lle = None
+
+    n = x.shape[0]
+    scales = component_scales(x, floor_rtol=scale_floor_rtol)
+    per = detect_period(x, m_max=m_max, rtol=period_rtol, scales=scales)
+    clu = cluster_points(
+        x, tol=cluster_tol, scales=scales, max_points=max_cluster_points, m_max=m_max
+    )
+    phi = scalar_observable(x, observable)
+    zo = zero_one_test(phi, stride=zero_one_stride, seed=seed)
+    spec = spectral_lines(phi)
+    pat = periodic_pattern(x, m_max=m_max)
+    if pat.period is not None:
+        phi_res = scalar_observable(pat.residual, observable)
+        spec_res = spectral_lines(phi_res)
+        zo_res = zero_one_test(phi_res, stride=zero_one_stride, seed=seed)
+        growth = max(spec.growth, spec_res.growth)
+        k_val = max(zo.K, zo_res.K)
+    else:
+        spec_res = zo_res = None
+        growth, k_val = spec.growth, zo.K
+
+    indicators: dict[str, float | int | None] = {
+        "n_samples": n,
+        "period_test": per.period,
+        "period_residual": per.best_residual,
+        "n_clusters": clu.n_clusters,
+        "cluster_diameter": clu.max_diameter,
+        "cluster_separation": clu.min_separation,
+        "cluster_period": clu.label_period,
+        "K": zo.K,
+        "K_stride": zo.stride,
+        "spectral_growth": spec.growth,
+        "spectral_entropy": spec.entropy,
+        "pattern_period": pat.period,
+        "pattern_explained": None if pat.period is None else float(pat.explained[pat.period - 1]),
+        "K_residual": None if zo_res is None else zo_res.K,
+        "spectral_growth_residual": None if spec_res is None else spec_res.growth,
+        "lle_per_period": lle,
+    }
+
+    # --- votes of the individual indicators
+    votes: dict[str, str] = {}
+    votes["period_test"] = f"period {per.period}" if per.period else "no period"
+    clusters_are_points = clu.max_diameter <= cluster_diameter_max
+    if clu.label_period is not None and clusters_are_points:
+        votes["clusters"] = f"{clu.n_clusters} point cluster(s), itinerary period {clu.label_period}"
+    else:
+        votes["clusters"] = f"{clu.n_clusters} cluster(s), not a finite point set"
+    if growth < growth_lines:
+        votes["spectrum"] = "lines"
+    elif growth > growth_broadband:
+        votes["spectrum"] = "broadband"
+    else:
+        votes["spectrum"] = "ambiguous"
+    votes["zero_one"] = "chaotic" if k_val > k_chaotic else "regular"
+    if lle is None:
+        votes["lle"] = "not given"
+    elif lle > lle_threshold:
+        votes["lle"] = "positive"
+    else:
+        votes["lle"] = "non-positive"
+
+    facts = f"spectral growth {growth:.2f} ({votes['spectrum']}), 0-1 test K={k_val:.2f}"
+    if pat.period is not None:
+        facts += (
+            f" (larger of the series and its residual after removing the period-"
+            f"{pat.period} pattern, {100 * pat.explained[pat.period - 1]:.1f}% of the variance)"
+        )
+    if lle is not None:
+        facts += f"; lambda_1={lle:.3g}/period"
+
+    def result(label: Label, period: int | None, reason: str) -> RegimeResult:
+        return RegimeResult(
+            label=label,
+            period=period,
+            reason=reason,
+            indicators=MappingProxyType(indicators),
+            votes=MappingProxyType(votes),
+        )
+
+    # --- 1. periodic
+    m: int | None = None
+    if per.period is not None:
+        m = per.period
+        why = (
+            f"x[i+{m}] matches x[i] for all i within {per.best_residual:.1e} of the "
+            f"spread (tolerance {period_rtol:g}); {clu.n_clusters} Poincare cluster(s)"
+        )
+    elif clu.label_period is not None and clusters_are_points:
+        m = clu.label_period
+        why = (
+            f"points form {clu.n_clusters} tight clusters (diameter {clu.max_diameter:.1e} "
+            f"of the spread) visited with period {m}; sample-wise period test failed "
+            f"(residual {per.best_residual:.2g} > {period_rtol:g}), noise suspected"
+        )
+    if m is not None:
+        if lle is not None and lle > lle_threshold:
+            why += f"; CONFLICT: lambda_1={lle:.3g}/period > {lle_threshold:g} ignored"
+        return result(PERIODIC, m, f"period {m}: {why}")
+
+    # --- 2. quasi-periodic vs chaotic
+    nonper = f"no period <= {m_max} (best residual {per.best_residual:.2g})"
+    if lle is not None:
+        if lle > lle_threshold:
+            if votes["spectrum"] == "lines" and votes["zero_one"] == "regular":
+                return result(
+                    QUASI_PERIODIC,
+                    None,
+                    f"{nonper}; CONFLICT: lambda_1={lle:.3g}/period > {lle_threshold:g} but "
+                    f"discrete spectrum and regular 0-1 test ({facts}); labelled by the data",
+                )
+            return result(
+                CHAOTIC,
+                None,
+                f"{nonper}; lambda_1={lle:.3g}/period > {lle_threshold:g} ({facts})",
+            )
+        note = ""
+        if votes["spectrum"] == "broadband" and votes["zero_one"] == "chaotic":
+            note = "; CONFLICT: broadband spectrum and 0-1 test say chaotic"
+        return result(
+            QUASI_PERIODIC,
+            None,
+            f"{nonper}; lambda_1={lle:.3g}/period <= {lle_threshold:g} rules out chaos "
+            f"({facts}){note}",
+        )
+    if votes["spectrum"] == "lines":
+        return result(QUASI_PERIODIC, None, f"{nonper}; discrete spectrum ({facts})")
+    if votes["spectrum"] == "broadband":
+        return result(CHAOTIC, None, f"{nonper}; broadband spectrum ({facts})")
+    label: Label = CHAOTIC if votes["zero_one"] == "chaotic" else QUASI_PERIODIC
+    return result(
+        label, None, f"{nonper}; spectrum ambiguous, 0-1 test decides ({facts})"
+    )
