@@ -1,0 +1,28 @@
+# Two entry points (see README): `make run` and `make test`.  Both create the project's
+# virtualenv in .venv on first use (Debian: installs python3-venv if it is missing).
+VENV ?= .venv
+PYTHON ?= python3
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+.PHONY: run test setup clean-venv
+
+setup: $(STAMP)
+
+$(STAMP): pyproject.toml
+	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "Python >= 3.11 required, found " + sys.version'
+	$(PYTHON) -m venv $(VENV) || { apt-get update && apt-get install -y python3-venv && $(PYTHON) -m venv $(VENV); }
+	$(BIN)/python -m pip install --upgrade pip
+	$(BIN)/python -m pip install -e '.[test]'
+	touch $@
+
+# Main job on the default config.
+run: $(STAMP)
+	$(BIN)/snakemake -c2 modes
+
+# Whole test suite.
+test: $(STAMP)
+	$(BIN)/python -m pytest -n 2 --durations=15
+
+clean-venv:
+	rm -rf $(VENV)
