@@ -9,9 +9,10 @@ configfile: "config/config.yaml"
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/modes.smk"
+include: "workflow/rules/regimes.smk"
 
 
 rule all:
     default_target: True
     input:
-        rules.modes.input,
+        rules.regimes.input,

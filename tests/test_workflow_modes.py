@@ -24,9 +24,13 @@ def snakemake(workdir: Path, *args: str) -> subprocess.CompletedProcess:
     return subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
 
 
-def write_config(path: Path, alpha=0.02, beta=0.5, bc="clamped-free", n_modes=3) -> Path:
-    path.write_text(yaml.safe_dump({"geometry": {"alpha": alpha, "beta": beta, "bc": bc},
-                                    "modes": {"n_modes": n_modes}}))
+def write_config(path: Path, alpha=0.02, beta=0.5, n_modes=3, **model) -> Path:
+    """The repository's config with the geometry replaced (equal layers of thickness alpha)."""
+    cfg = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    cfg["model"].update(alpha1=alpha, alpha2=alpha, beta=beta, **model)
+    cfg["modes"]["n_modes"] = n_modes
+    cfg["grid_file"] = str(ROOT / "config" / "grid.yaml")
+    path.write_text(yaml.safe_dump(cfg))
     return path
 
 
@@ -83,17 +87,19 @@ def built_workdir(tmp_path_factory):
 @pytest.mark.parametrize(
     "override,key,allowed",
     [
-        ({"alpha": -0.02}, "geometry.alpha", "> 0"),
-        ({"beta": 7.0}, "geometry.beta", "< 6.28"),
-        ({"bc": "free-free"}, "geometry.bc", "clamped-free"),
+        ({"alpha": -0.02}, "model.alpha", "> 0"),
+        ({"beta": 7.0}, "model.beta", "< 6.28"),
+        ({"bc": "free-free"}, "model.bc", "clamped-free"),
         ({"n_modes": 0}, "modes.n_modes", ">= 1"),
+        ({"mu_s": -0.1}, "model.mu_s", ">= 0"),
+        ({"law": "viscous"}, "model.law", "stick-slip"),
     ],
 )
 def test_bad_config_fails_before_any_job_and_changes_nothing(built_workdir, override, key, allowed):
     tmp_path = built_workdir
     before = {p: p.stat().st_mtime_ns for p in (tmp_path / "results").rglob("*") if p.is_file()}
-    kw = {"alpha": 0.02, "beta": 0.5, "bc": "clamped-free", "n_modes": 3} | override
-    bad = write_config(tmp_path / "bad.yaml", **kw)
+    kw = {"alpha": 0.02, "beta": 0.5, "n_modes": 3} | override
+    bad = write_config(tmp_path / f"bad_{key}.yaml", **kw)
     res = snakemake(tmp_path, "modes", "--configfile", str(bad))
     assert res.returncode != 0
     lines = [ln for ln in (res.stdout + res.stderr).splitlines() if ln.startswith("invalid config:")]

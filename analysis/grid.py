@@ -1,0 +1,117 @@
+"""Parameter grids of the regime pipeline: expansion into points, point identity, chunks.
+
+A grid (``config/grid.yaml``) has ``axes`` -- any model parameter, given as a list
+(``values: [...]``) or a range with a count (``range: [lo, hi], num: n``, optionally
+``scale: log``) -- and ``fixed`` overrides of the model defaults (``config/config.yaml``,
+section ``model``).  A 1-D grid yields a bifurcation diagram, a 2-D grid a regime map.
+
+A point's identity is its parameters, not its position in a list:
+``point_id = sha256(canonical JSON of the resolved parameters and the numerics that change
+results)[:16]``.  Adding points or reordering a grid therefore recomputes only new points;
+changing a default changes the id of every point that uses it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+#: bump when a code change alters results for unchanged parameters (invalidates all ids)
+RESULTS_VERSION = "1"
+
+
+def _canonical(value):
+    """JSON-stable form: floats via repr (exact), numpy scalars to Python, dict keys sorted."""
+    if isinstance(value, dict):
+        return {str(k): _canonical(v) for k, v in sorted(value.items())}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_canonical(v) for v in value]
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        v = float(value)
+        if v.is_integer() and abs(v) < 2**53:
+            return int(v)  # 1 and 1.0 are the same parameter value
+        return v
+    return value
+
+
+def canonical_json(obj) -> str:
+    return json.dumps(_canonical(obj), sort_keys=True, separators=(",", ":"))
+
+
+def point_id(params: dict, numerics: dict) -> str:
+    """16-hex-digit identity of a point from its resolved parameters and the numerics."""
+    payload = canonical_json({"params": params, "numerics": numerics, "version": RESULTS_VERSION})
+    return hashlib.sha256(payload.encode()).hexdigest()[:16]
+
+
+def axis_values(name: str, spec) -> list:
+    """Values of one axis: a list, or ``{"values": [...]}``, or ``{"range": [lo, hi], "num": n,
+    "scale": "linear" | "log"}`` (endpoints included)."""
+    if isinstance(spec, list):
+        values = spec
+    elif "values" in spec:
+        values = spec["values"]
+    else:
+        lo, hi = spec["range"]
+        num = int(spec["num"])
+        if spec.get("scale", "linear") == "log":
+            if lo <= 0 or hi <= 0:
+                raise ValueError(f"axis {name}: a log range needs positive ends, got {spec['range']}")
+            values = np.geomspace(lo, hi, num)
+        else:
+            values = np.linspace(lo, hi, num)
+        values = [float(f"{v:.12g}") for v in values]  # stable decimal values, no 0.30000000000000004
+    if len(values) == 0:
+        raise ValueError(f"axis {name}: no values")
+    return list(values)
+
+
+@dataclass(frozen=True)
+class GridPoint:
+    grid: str
+    index: tuple  # position along each axis
+    params: dict  # fully resolved model parameters
+    point_id: str
+
+
+def expand_grid(name: str, grid: dict, model_defaults: dict, numerics: dict) -> list[GridPoint]:
+    """All points of a grid, in axis order (first axis slowest)."""
+    axes = grid.get("axes", {})
+    unknown = set(axes) | set(grid.get("fixed", {}))
+    unknown -= set(model_defaults)
+    if unknown:
+        raise ValueError(f"grid {name}: unknown parameter(s) {sorted(unknown)}; "
+                         f"allowed: {sorted(model_defaults)}")
+    both = set(axes) & set(grid.get("fixed", {}))
+    if both:
+        raise ValueError(f"grid {name}: {sorted(both)} given both as axis and as fixed")
+    base = dict(model_defaults) | dict(grid.get("fixed", {}))
+    names = list(axes)
+    values = [axis_values(a, axes[a]) for a in names]
+    points = []
+    for idx in itertools.product(*(range(len(v)) for v in values)):
+        params = dict(base)
+        for a, i, v in zip(names, idx, values):
+            params[a] = v[i]
+        params = {k: v for k, v in params.items() if v is not None}
+        points.append(GridPoint(grid=name, index=idx, params=params, point_id=point_id(params, numerics)))
+    ids = [p.point_id for p in points]
+    if len(set(ids)) != len(ids):
+        raise ValueError(f"grid {name}: repeated points (an axis lists a value twice)")
+    return points
+
+
+def chunk_points(points: list[GridPoint], chunk_size: int) -> list[list[GridPoint]]:
+    """Split into ``ceil(n / chunk_size)`` chunks; the assignment depends only on the ids."""
+    n_chunks = max(1, math.ceil(len(points) / chunk_size))
+    ordered = sorted(points, key=lambda p: p.point_id)
+    return [ordered[k::n_chunks] for k in range(n_chunks)]

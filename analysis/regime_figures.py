@@ -1,0 +1,204 @@
+"""Figures of the regime pipeline: regime map and lambda_1 map (2-D grids), bifurcation
+diagram and lambda_1 curve (1-D grids), phase portraits and Poincare maps of marked points."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+from matplotlib.colors import ListedColormap, TwoSlopeNorm  # noqa: E402
+from matplotlib.patches import Patch  # noqa: E402
+
+#: colour of each label (periodic orbits of period > 1 get a darker blue)
+LABEL_COLOURS = {
+    "periodic": "#4c72b0",
+    "periodic (m > 1)": "#1b3a6b",
+    "quasi-periodic": "#55a868",
+    "chaotic": "#c44e52",
+    "unsettled": "#bbbbbb",
+    "diverged": "#000000",
+}
+
+#: axis labels with definitions and units
+PARAM_LABELS = {
+    "Omega": r"$\Omega = \omega / \omega_1$ (forcing / first stuck natural frequency)",
+    "f0_rel": r"$f_0 / f_{cr}$ (load amplitude / static initial-slip load)",
+    "f0": r"$f_0 = F_0 / (E b R)$",
+    "lam_f": r"$\lambda = \omega^2 \rho R^2 / E$",
+    "p": r"$p^* = p / E$ (interlayer pressure)",
+    "mu_s": r"$\mu_s$ (static friction coefficient)",
+    "mu_k": r"$\mu_k$ (kinetic friction coefficient)",
+    "beta": r"$\beta$ [rad] (opening angle)",
+    "damping": r"$\zeta$ (modal damping ratio)",
+    "k_t": r"$k_t R / E$ (interface stick stiffness)",
+    "alpha1": r"$\alpha_1 = h_1 / R$",
+    "alpha2": r"$\alpha_2 = h_2 / R$",
+    "n_modes": "number of modes N",
+}
+
+
+def _label_key(row) -> str:
+    if row["label"] == "periodic" and pd.notna(row["period"]) and int(row["period"]) > 1:
+        return "periodic (m > 1)"
+    return str(row["label"])
+
+
+def _axis_label(name: str) -> str:
+    return PARAM_LABELS.get(name, name)
+
+
+def _fixed_title(grid_name: str, table: pd.DataFrame, axes: list[str]) -> str:
+    keys = ["law", "mu_s", "mu_k", "p", "n_modes", "alpha1", "alpha2", "beta", "k_t", "damping",
+            "f0_rel", "Omega"]
+    parts = []
+    for k in keys:
+        if k in table.columns and k not in axes:
+            vals = table[k].dropna().unique()
+            if len(vals) == 1:
+                v = vals[0]
+                parts.append(f"{k}={v:g}" if isinstance(v, (int, float, np.floating)) else f"{k}={v}")
+    return f"grid '{grid_name}': " + ", ".join(parts)
+
+
+def _edges(values: np.ndarray, log: bool) -> np.ndarray:
+    v = np.log(values) if log else values
+    if v.size == 1:
+        e = np.array([v[0] - 0.5, v[0] + 0.5])
+    else:
+        mid = 0.5 * (v[1:] + v[:-1])
+        e = np.concatenate([[v[0] - (mid[0] - v[0])], mid, [v[-1] + (v[-1] - mid[-1])]])
+    return np.exp(e) if log else e
+
+
+def _is_log(grid: dict, name: str) -> bool:
+    spec = grid["axes"][name]
+    return isinstance(spec, dict) and spec.get("scale") == "log"
+
+
+def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: int = 130) -> None:
+    """2-D grid: categorical regime map; 1-D grid: bifurcation diagram coloured by regime."""
+    axes = list(grid["axes"])
+    keys = table.apply(_label_key, axis=1)
+    present = [k for k in LABEL_COLOURS if (keys == k).any()]
+    handles = [Patch(color=LABEL_COLOURS[k], label=f"{k} ({int((keys == k).sum())})") for k in present]
+    if len(axes) == 2:
+        xa, ya = axes
+        xs, ys = np.sort(table[xa].unique()), np.sort(table[ya].unique())
+        codes = {k: i for i, k in enumerate(LABEL_COLOURS)}
+        z = np.full((ys.size, xs.size), np.nan)
+        for (_, row), key in zip(table.iterrows(), keys):
+            z[np.searchsorted(ys, row[ya]), np.searchsorted(xs, row[xa])] = codes[key]
+        fig, ax = plt.subplots(figsize=(8, 6), constrained_layout=True)
+        cmap = ListedColormap(list(LABEL_COLOURS.values()))
+        ax.pcolormesh(_edges(xs, _is_log(grid, xa)), _edges(ys, _is_log(grid, ya)), z, cmap=cmap,
+                      vmin=-0.5, vmax=len(LABEL_COLOURS) - 0.5, edgecolors="white", linewidth=0.3)
+        if "slipped" in table.columns:  # initial-slip boundary: hatch points that never slipped
+            for _, row in table[~table["slipped"].astype(bool)].iterrows():
+                ax.plot(row[xa], row[ya], marker="x", ms=3, color="white", mew=0.6)
+            handles.append(plt.Line2D([], [], marker="x", ls="", color="0.3", label="never slipped (stuck)"))
+        for name, setter in ((xa, ax.set_xscale), (ya, ax.set_yscale)):
+            if _is_log(grid, name):
+                setter("log")
+        ax.set_xlabel(_axis_label(xa))
+        ax.set_ylabel(_axis_label(ya))
+        ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, title="regime")
+    else:
+        xa = axes[0]
+        fig, ax = plt.subplots(figsize=(9, 5), constrained_layout=True)
+        for (_, row), key in zip(table.iterrows(), keys):
+            w = np.asarray(row["poincare_w_tip"], dtype=float)
+            ax.plot(np.full(w.size, row[xa]), w, ".", ms=1.5, color=LABEL_COLOURS[key])
+        if _is_log(grid, xa):
+            ax.set_xscale("log")
+        ax.set_xlabel(_axis_label(xa))
+        ax.set_ylabel(r"tip radial displacement $w(\beta)/R$ at $t = kT$ (Poincare samples)")
+        ax.legend(handles=handles, fontsize=8, title="regime")
+    ax.set_title("Regimes, " + _fixed_title(grid_name, table, axes), fontsize=9)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+
+
+def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: int = 130) -> None:
+    """Largest Lyapunov exponent per forcing period (Stefanski), map or curve."""
+    axes = list(grid["axes"])
+    per_period = table["lle_stefanski"] * 2.0 * np.pi / table["omega"]
+    if len(axes) == 2:
+        xa, ya = axes
+        xs, ys = np.sort(table[xa].unique()), np.sort(table[ya].unique())
+        z = np.full((ys.size, xs.size), np.nan)
+        for (_, row), v in zip(table.iterrows(), per_period):
+            z[np.searchsorted(ys, row[ya]), np.searchsorted(xs, row[xa])] = v
+        fig, ax = plt.subplots(figsize=(8, 6), constrained_layout=True)
+        finite = z[np.isfinite(z)]
+        lim = max(np.abs(finite).max(), 1e-6) if finite.size else 1.0
+        mesh = ax.pcolormesh(_edges(xs, _is_log(grid, xa)), _edges(ys, _is_log(grid, ya)), z,
+                             cmap="RdBu_r", norm=TwoSlopeNorm(0.0, -lim, lim))
+        fig.colorbar(mesh, ax=ax, label=r"$\lambda_1 T$ (per forcing period; > 0: chaos)")
+        for name, setter in ((xa, ax.set_xscale), (ya, ax.set_yscale)):
+            if _is_log(grid, name):
+                setter("log")
+        ax.set_xlabel(_axis_label(xa))
+        ax.set_ylabel(_axis_label(ya))
+    else:
+        xa = axes[0]
+        fig, ax = plt.subplots(figsize=(9, 4), constrained_layout=True)
+        for col, style in (("lle_stefanski", "o-"), ("lle_benettin", "s--")):
+            if col in table.columns:
+                ax.plot(table[xa], table[col] * 2 * np.pi / table["omega"], style, ms=3, label=col[4:])
+        ax.axhline(0, color="0.5", lw=0.8)
+        if _is_log(grid, xa):
+            ax.set_xscale("log")
+        ax.set_xlabel(_axis_label(xa))
+        ax.set_ylabel(r"$\lambda_1 T$ (per forcing period)")
+        ax.legend(fontsize=8)
+    ax.set_title(r"Largest Lyapunov exponent, " + _fixed_title(grid_name, table, axes), fontsize=9)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+
+
+def nearest_rows(table: pd.DataFrame, grid: dict) -> list[pd.Series]:
+    """Grid rows nearest to each ``mark`` entry of the grid (distance in axis units scaled by
+    each axis' span; log axes in log units)."""
+    rows = []
+    for mark in grid.get("mark", []):
+        d = np.zeros(len(table))
+        for a in grid["axes"]:
+            if a not in mark:
+                continue
+            vals = table[a].to_numpy(dtype=float)
+            target = float(mark[a])
+            if _is_log(grid, a):
+                vals, target = np.log(vals), np.log(target)
+            span = np.ptp(vals) or 1.0
+            d += ((vals - target) / span) ** 2
+        rows.append(table.iloc[int(np.argmin(d))])
+    return rows
+
+
+def plot_portraits(cases: list[dict], grid_name: str, path: str, dpi: int = 130) -> None:
+    """Phase portrait (tip radial displacement vs velocity) and Poincare map of marked points.
+
+    ``cases``: dicts with ``title``, ``t``, ``w``, ``w_dot`` (dense history of the last
+    periods) and ``pw``, ``pw_dot`` (Poincare samples).
+    """
+    n = max(1, len(cases))
+    fig, axes = plt.subplots(n, 2, figsize=(11, 3.6 * n), constrained_layout=True, squeeze=False)
+    for row, case in zip(axes, cases):
+        row[0].plot(case["w"], case["w_dot"], lw=0.5, color="C0")
+        row[0].plot(case["pw"], case["pw_dot"], ".", ms=3, color="C3", label="Poincare samples")
+        row[0].set_xlabel(r"tip radial displacement $w(\beta)/R$")
+        row[0].set_ylabel(r"tip radial velocity")
+        row[0].set_title("phase portrait: " + case["title"], fontsize=8)
+        row[0].legend(fontsize=7)
+        row[1].plot(case["pw"], case["pw_dot"], ".", ms=2, color="C3")
+        row[1].set_xlabel(r"$w(\beta)/R$ at $t = kT$")
+        row[1].set_ylabel("tip radial velocity at $t = kT$")
+        row[1].set_title("Poincare map", fontsize=8)
+    if not cases:
+        axes[0, 0].text(0.5, 0.5, "no points marked in config/grid.yaml", ha="center")
+    fig.suptitle(f"Marked points of grid '{grid_name}'", fontsize=10)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)

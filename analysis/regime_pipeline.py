@@ -1,0 +1,239 @@
+"""The stages of the regime pipeline, one function per Snakemake rule (rules stay thin).
+
+Every stage takes a chunk of grid points (``[{"point_id": ..., "params": {...}}, ...]``),
+looks each point up in the content-addressed :class:`analysis.point_store.PointStore`,
+computes only the missing ones (batched, threads inside), and returns one table row per
+point in the chunk's order.  Progress (points done / total) goes to the ``logging`` log.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable, Sequence
+
+import numpy as np
+import pandas as pd
+
+from analysis.grid import canonical_json
+from analysis.point_store import PointStore
+
+log = logging.getLogger("regimes")
+
+#: Poincare samples are stored as (n_record + 1, n_columns) arrays per point
+POINCARE_KEYS = ("poincare_state", "poincare_tip")
+
+
+def _cached_stage(points: Sequence[dict], store: PointStore, compute: Callable[[list[dict]], list[dict]],
+                  batch_size: int, stage: str) -> list[dict]:
+    """Records for ``points``: from the store where present, else ``compute``d in batches."""
+    todo = [p for p in points if not store.has(p["point_id"])]
+    n, done = len(points), len(points) - len(todo)
+    log.info("%s: %d points, %d cached, %d to compute", stage, n, done, len(todo))
+    t0 = time.perf_counter()
+    for start in range(0, len(todo), batch_size):
+        batch = todo[start:start + batch_size]
+        for p, rec in zip(batch, compute(batch)):
+            store.save(p["point_id"], rec)
+        done += len(batch)
+        log.info("%s: %d / %d points done (%.1f s)", stage, done, n, time.perf_counter() - t0)
+    return [store.load(p["point_id"]) for p in points]
+
+
+# ----------------------------------------------------------------------------- simulate
+def _simulate_group(points: list[dict], numerics: dict, threads: int) -> list[dict]:
+    from beamsim.simulate import simulate_batch
+
+    res = simulate_batch([p["params"] for p in points], n_transient=numerics["n_transient"],
+                         n_record=numerics["n_record"], method=numerics["method"],
+                         steps_per_period=numerics.get("steps_per_period"), n_threads=threads)
+    out = []
+    for r in res.results:
+        w_in = float(r.energy[-1, 0]) if r.energy.size else np.nan
+        out.append({
+            "poincare_state": r.poincare_state, "poincare_tip": r.poincare_tip,
+            "final_state": np.asarray(getattr(r, "final_state", np.full(0, np.nan))),
+            "diss_per_cycle_series": r.diss_per_cycle,
+            "f0": r.f0, "f_cr": r.f_cr, "omega": r.omega, "Omega": r.Omega, "lam_f": r.lam_f,
+            "steps_per_period": r.steps_per_period, "method": r.method,
+            "diverged": r.diverged, "t_diverged": r.t_diverged,
+            "slipped": r.slipped, "t_first_slip": r.t_first_slip,
+            "stick_fraction": r.stick_fraction, "stick_fraction_all": r.stick_fraction_all,
+            "diss_per_cycle": float(np.nanmean(r.diss_per_cycle)) if np.isfinite(r.diss_per_cycle).any() else np.nan,
+            "energy_residual_rel": float(abs(r.energy_residual[-1]) / w_in) if w_in > 0 else np.nan,
+        })
+    return out
+
+
+def simulate_points(points: Sequence[dict], numerics: dict, store_root: str, threads: int = 1) -> pd.DataFrame:
+    """Stage 1: time integration; one row per point with its Poincare samples."""
+    store = PointStore(store_root, "simulate")
+
+    def compute(batch: list[dict]) -> list[dict]:
+        # a batch must share the state size: group by (n_modes, n_quad)
+        groups: dict = {}
+        for i, p in enumerate(batch):
+            groups.setdefault((p["params"].get("n_modes"), p["params"].get("n_quad")), []).append(i)
+        recs: list = [None] * len(batch)
+        for idx in groups.values():
+            for i, rec in zip(idx, _simulate_group([batch[i] for i in idx], numerics, threads)):
+                recs[i] = rec
+        return recs
+
+    recs = _cached_stage(points, store, compute, batch_size=max(2 * threads, 16), stage="simulate")
+    return _table(points, recs)
+
+
+def _table(points: Sequence[dict], recs: Sequence[dict]) -> pd.DataFrame:
+    rows = []
+    for p, rec in zip(points, recs):
+        row = {"point_id": p["point_id"]}
+        for k, v in rec.items():
+            row[k] = v.tolist() if isinstance(v, np.ndarray) else v
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def poincare_array(value) -> np.ndarray:
+    """A stored Poincare column (list of lists) back to a 2-D float array."""
+    return np.array([np.asarray(r, dtype=float) for r in value], dtype=float)
+
+
+# ----------------------------------------------------------------------------- classify
+def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame) -> pd.DataFrame:
+    """Stage 3: a label per point from its Poincare samples and its largest Lyapunov exponent.
+
+    Non-results first: ``diverged`` (the integrator flagged the point), ``unsettled``
+    (:func:`analysis.regimes.is_settled` says the transient is not over); otherwise
+    :func:`analysis.regimes.classify` on the stroboscopic samples of all generalised
+    coordinates and velocities, with ``lambda_1`` (Stefanski) per forcing period.
+    """
+    from analysis.regimes import DIVERGED, UNSETTLED, classify, is_settled
+
+    lle = lyapunov.set_index("point_id")
+    rows = []
+    for _, sim in simulated.iterrows():
+        pid = sim["point_id"]
+        period_t = 2.0 * np.pi / sim["omega"]
+        lam = lle.loc[pid, "lle_stefanski"] if pid in lle.index else np.nan
+        row = {"point_id": pid, "label": None, "period": None, "reason": "", "K": np.nan,
+               "spectral_growth": np.nan, "n_clusters": np.nan, "settled": False}
+        x = poincare_array(sim["poincare_state"])
+        if sim["diverged"] or not np.all(np.isfinite(x)):
+            row.update(label=DIVERGED, reason="integration diverged")
+        elif not is_settled(x):
+            row.update(label=UNSETTLED, reason="transient not over: first and second half of the "
+                       "Poincare record differ (is_settled)")
+        else:
+            res = classify(x, lle_per_period=(lam * period_t) if np.isfinite(lam) else None)
+            ind = dict(res.indicators)
+            row.update(label=res.label, period=res.period, reason=res.reason, settled=True,
+                       K=ind.get("K", np.nan), spectral_growth=ind.get("spectral_growth", np.nan),
+                       n_clusters=ind.get("n_clusters", np.nan))
+        rows.append(row)
+    out = pd.DataFrame(rows)
+    out["period"] = out["period"].astype("Int64")
+    return out
+
+
+# ----------------------------------------------------------------------------- regime table
+#: columns of the regime table besides the model parameters (docs/pipeline.md)
+TABLE_COLUMNS = (
+    "point_id", "label", "period", "lle_stefanski", "lle_benettin", "lle_nolds", "K",
+    "spectral_growth", "n_clusters", "slipped", "t_first_slip", "stick_fraction",
+    "diss_per_cycle", "f0", "f_cr", "omega", "lam_f", "diverged", "settled",
+    "energy_residual_rel", "reason",
+)
+
+
+def assemble_regime_table(grid_points: Sequence[dict], simulated: pd.DataFrame, lyapunov: pd.DataFrame,
+                          classified: pd.DataFrame) -> pd.DataFrame:
+    """Stage 4: one row per grid point in grid order (first axis slowest), parameters first."""
+    by_id = (classified.set_index("point_id")
+             .join(lyapunov.set_index("point_id"), rsuffix="_lle")
+             .join(simulated.set_index("point_id"), rsuffix="_sim"))
+    param_names = sorted({k for p in grid_points for k in p["params"]})
+    rows = []
+    for p in grid_points:
+        r = by_id.loc[p["point_id"]]
+        row = {k: p["params"].get(k) for k in param_names}
+        row.update({f"index_{i}": v for i, v in enumerate(p["index"])})
+        row.update({c: r[c] if c in r.index else None for c in TABLE_COLUMNS if c != "point_id"})
+        row["point_id"] = p["point_id"]
+        row["params_json"] = canonical_json(p["params"])
+        tip = poincare_array(r["poincare_tip"])
+        row["poincare_w_tip"] = tip[:, 0].tolist() if tip.size else []
+        rows.append(row)
+    table = pd.DataFrame(rows)
+    table["period"] = table["period"].astype("Int64")
+    return table
+
+
+def package_versions() -> dict:
+    """Versions of the packages a regime table depends on."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = {}
+    for name in ("beamsim", "numpy", "scipy", "numba", "pandas", "pyarrow", "nolds", "snakemake"):
+        try:
+            out[name] = version(name)
+        except PackageNotFoundError:
+            out[name] = None
+    return out
+
+
+def write_regime_table(table: pd.DataFrame, path: str, *, grid_name: str, grid: dict, config: dict,
+                       config_hash: str) -> None:
+    """Write the table to Parquet with ``beamsim.regimes`` metadata (grid, config, config hash,
+    package versions); atomically, so a failed run never leaves a partial table."""
+    import json
+    import os
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    tab = pa.Table.from_pandas(table, preserve_index=False)
+    meta = {"grid_name": grid_name, "grid": grid, "config": config, "config_hash": config_hash,
+            "versions": package_versions()}
+    tab = tab.replace_schema_metadata({**(tab.schema.metadata or {}),
+                                       b"beamsim.regimes": json.dumps(meta, sort_keys=True).encode()})
+    tmp = f"{path}.tmp"
+    pq.write_table(tab, tmp)
+    os.replace(tmp, path)
+
+
+def read_regime_metadata(path: str) -> dict:
+    """The ``beamsim.regimes`` metadata of a regime table."""
+    import json
+
+    import pyarrow.parquet as pq
+
+    return json.loads(pq.read_schema(path).metadata[b"beamsim.regimes"])
+
+
+# ----------------------------------------------------------------------------- portraits
+def portrait_case(row: pd.Series, axes: list[str], numerics: dict, samples_per_period: int = 64,
+                  n_show: int = 40) -> dict:
+    """Dense tip history of one grid point for its phase portrait and Poincare map.
+
+    Re-simulates the point (same parameters and numerics as the table) with a dense output of
+    ``samples_per_period`` per period; the velocity is the central difference of the dense
+    tip displacement.  Returns the data :func:`analysis.regime_figures.plot_portraits` draws.
+    """
+    import json
+
+    from beamsim.simulate import simulate
+
+    params = json.loads(row["params_json"])
+    spp = int(numerics.get("steps_per_period") or 256)
+    spp = max(samples_per_period, int(np.ceil(spp / samples_per_period) * samples_per_period))
+    r = simulate(n_transient=numerics["n_transient"], n_record=numerics["n_record"], method=numerics["method"],
+                 steps_per_period=spp, dense_per_period=samples_per_period, **params)
+    t, w = r.dense_t, r.dense[:, 0]
+    w_dot = np.gradient(w, t)
+    tail = slice(len(t) - n_show * samples_per_period - 1, len(t))
+    start = numerics["n_transient"] * samples_per_period
+    pidx = np.arange(start, len(t), samples_per_period)
+    where = ", ".join(f"{a}={row[a]:g}" for a in axes)
+    title = f"{where}: {row['label']}" + (f" (period {int(row['period'])})" if pd.notna(row["period"]) else "")
+    return {"title": title, "t": t[tail], "w": w[tail], "w_dot": w_dot[tail], "pw": w[pidx], "pw_dot": w_dot[pidx]}

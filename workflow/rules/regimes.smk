@@ -1,0 +1,113 @@
+rule simulate_chunk:
+    input:
+        modes=chunk_mode_files,
+    output:
+        table="results/regimes/{grid}/chunks/{chunk}.simulate.parquet",
+    params:
+        points=chunk_payload,
+        numerics=RESULT_NUMERICS,
+    threads: 2
+    log:
+        "logs/regimes/{grid}/simulate_{chunk}.log",
+    conda:
+        "../envs/beamsim.yaml"
+    script:
+        "../scripts/simulate_chunk.py"
+
+
+rule lyapunov_chunk:
+    input:
+        simulate="results/regimes/{grid}/chunks/{chunk}.simulate.parquet",
+    output:
+        table="results/regimes/{grid}/chunks/{chunk}.lyapunov.parquet",
+    params:
+        points=chunk_payload,
+        numerics=RESULT_NUMERICS,
+    threads: 2
+    log:
+        "logs/regimes/{grid}/lyapunov_{chunk}.log",
+    conda:
+        "../envs/beamsim.yaml"
+    script:
+        "../scripts/lyapunov_chunk.py"
+
+
+rule classify_chunk:
+    input:
+        simulate="results/regimes/{grid}/chunks/{chunk}.simulate.parquet",
+        lyapunov="results/regimes/{grid}/chunks/{chunk}.lyapunov.parquet",
+    output:
+        table="results/regimes/{grid}/chunks/{chunk}.classify.parquet",
+    params:
+        points=chunk_payload,
+    log:
+        "logs/regimes/{grid}/classify_{chunk}.log",
+    conda:
+        "../envs/beamsim.yaml"
+    script:
+        "../scripts/classify_chunk.py"
+
+
+rule regime_table:
+    input:
+        simulate=lambda wc: chunk_files(wc.grid, "simulate"),
+        lyapunov=lambda wc: chunk_files(wc.grid, "lyapunov"),
+        classified=lambda wc: chunk_files(wc.grid, "classify"),
+    output:
+        table="results/regimes/{grid}.parquet",
+    params:
+        grid=lambda wc: GRIDS["grids"][wc.grid],
+        points=lambda wc: [
+            {"point_id": p.point_id, "index": list(p.index), "params": p.params}
+            for p in POINTS[wc.grid]
+        ],
+        config_hash=CONFIG_HASH,
+        config=config,
+    log:
+        "logs/regimes/{grid}/regime_table.log",
+    conda:
+        "../envs/beamsim.yaml"
+    script:
+        "../scripts/regime_table.py"
+
+
+rule regime_figures:
+    input:
+        table="results/regimes/{grid}.parquet",
+    output:
+        regimes="results/regimes/{grid}/regimes.png",
+        lle="results/regimes/{grid}/lle.png",
+    params:
+        grid=lambda wc: GRIDS["grids"][wc.grid],
+        dpi=config.get("figures", {}).get("dpi", 130),
+    log:
+        "logs/regimes/{grid}/regime_figures.log",
+    conda:
+        "../envs/beamsim.yaml"
+    script:
+        "../scripts/regime_figures.py"
+
+
+rule portraits:
+    input:
+        table="results/regimes/{grid}.parquet",
+    output:
+        figure="results/regimes/{grid}/portraits.png",
+    params:
+        grid=lambda wc: GRIDS["grids"][wc.grid],
+        numerics=RESULT_NUMERICS,
+        dpi=config.get("figures", {}).get("dpi", 130),
+    log:
+        "logs/regimes/{grid}/portraits.log",
+    conda:
+        "../envs/beamsim.yaml"
+    script:
+        "../scripts/portraits.py"
+
+
+rule regimes:
+    input:
+        expand("results/regimes/{grid}.parquet", grid=list(GRIDS["grids"])),
+        expand("results/regimes/{grid}/regimes.png", grid=list(GRIDS["grids"])),
+        expand("results/regimes/{grid}/lle.png", grid=list(GRIDS["grids"])),
+        expand("results/regimes/{grid}/portraits.png", grid=list(GRIDS["grids"])),
