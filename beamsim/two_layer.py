@@ -1,0 +1,473 @@
+r"""Two-layer curved beam with an interlayer shear interface: parameters and Galerkin matrices.
+
+The derivation is in ``docs/model.md``; this module implements its section "Galerkin
+reduction".  Summary (all quantities dimensionless: lengths / R, time / sqrt(rho R^2 / E),
+energies / (E b R^2), forces / (E b R), tractions and pressures / E):
+
+* generalised coordinates ``q = [a, b1, c1, b2, c2]`` (each block ``N`` long):
+  ``w = sum a_n W_n``, ``u_i = sum b_in U_n + c_in W_n'`` (layer i centroid),
+  with ``W_n, U_n`` the single-layer arch modes of :func:`beamsim.modes.arch_modes`.
+  The ``W_n'`` enrichment of the axial basis removes shear locking of the stuck interface.
+* kinetic energy ``T = sum_i alpha_i/2 int (w_t^2 + u_i,t^2)``,
+  strain energy ``V = sum_i alpha_i/2 int [(w + u_i')^2 + k_i^2 (w'' - u_i')^2]``,
+  ``k_i^2 = alpha_i^2 / 12`` -> ``M``, ``K``.
+* interface slip at the interface fibre (layer 1 = outer/upper layer, layer 2 = inner):
+  ``s = (1 - alpha1/2) u1 - (1 + alpha2/2) u2 + (alpha1 + alpha2)/2 w'``, sampled at the
+  ``n_quad`` Gauss-Legendre points ``theta_j`` (weights ``wq_j``): ``s_j = S[j] @ q``.
+* interface traction ``tau_j`` (resisting slip) enters as ``- S.T @ (wq * tau)``.
+* tip force ``F(t) = f0 (cos(omega t) - 1)`` in the fixed direction
+  ``cos(beta) e_r - sin(beta) e_theta`` applied at theta = beta to w and to the upper layer:
+  generalised force ``F(t) * g``.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+
+__all__ = [
+    "Geometry",
+    "TwoLayerModel",
+    "build_model",
+    "single_layer_modes",
+    "check_finite",
+    "check_positive",
+    "check_nonnegative",
+    "pressure_at",
+]
+
+AXIAL_RTOL = 1e-13
+SLIP_U_TERMS = True
+
+BCS = ("clamped-free", "clamped-clamped", "pinned-pinned")
+
+
+# --------------------------------------------------------------------------- validation helpers
+def check_finite(name: str, value) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a real number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return v
+
+
+def check_positive(name: str, value) -> float:
+    v = check_finite(name, value)
+    if v <= 0.0:
+        raise ValueError(f"{name} must be > 0, got {value!r}")
+    return v
+
+
+def check_nonnegative(name: str, value) -> float:
+    v = check_finite(name, value)
+    if v < 0.0:
+        raise ValueError(f"{name} must be >= 0, got {value!r}")
+    return v
+
+
+def check_int(name: str, value, minimum: int = 1) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        if isinstance(value, float) and value.is_integer():
+            value = int(value)
+        else:
+            raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    if value < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+# --------------------------------------------------------------------------- geometry
+@dataclass(frozen=True)
+class Geometry:
+    """Parameters that define the linear model (the matrices).
+
+    alpha1, alpha2 : layer thicknesses over R (upper = outer layer 1, lower = inner layer 2);
+        ``alpha2=None`` means equal layers.
+    beta : opening angle (rad).
+    n_modes : number N of arch modes (the model has 5 N generalised coordinates).
+    k_t : dimensionless interface (Jenkins / penalty) shear stiffness ``k_t_dim R / E``
+        (``k_t_dim`` = shear traction per unit tangential slip, Pa/m).
+    static_shape : add the static tip-load shape of the single-layer arch (w_s to the radial
+        basis, u_s and w_s' to the axial basis): modal truncation augmentation, makes the
+        interface traction near a concentrated tip load converge (clamped-free only).
+    n_slip : number of extra piecewise-linear axial ("slip") functions per layer on a uniform
+        mesh of ``n_slip`` elements over [0, beta] (0 = pure modal basis).  They let the
+        interface traction converge pointwise (shear-lag boundary layers, Goodman-Klumpp limit).
+    n_quad : number of interface points (``None`` -> ``max(8, 4 N)`` Gauss-Legendre points when
+        ``n_slip == 0``, else 2 Gauss points per slip element).
+    damping : modal damping ratio zeta applied to every mode of the *frictionless* structure
+        (material damping of the layers, independent of the interface state).
+    bc : end conditions of the arch modes (the paper: clamped-free).
+    alpha_modes : thickness of the single layer whose modes are the basis
+        (``None`` -> ``(alpha1 + alpha2) / 2``).
+    """
+
+    alpha1: float = 0.005
+    alpha2: float | None = None
+    beta: float = 0.4
+    n_modes: int = 3
+    k_t: float = 10.0
+    static_shape: bool = True
+    n_slip: int = 0
+    n_quad: int | None = None
+    damping: float = 0.0
+    bc: str = "clamped-free"
+    alpha_modes: float | None = None
+
+    def __post_init__(self):
+        a1 = check_positive("alpha1", self.alpha1)
+        a2 = a1 if self.alpha2 is None else check_positive("alpha2", self.alpha2)
+        if a1 >= 0.5 or a2 >= 0.5:
+            raise ValueError("alpha1, alpha2 must be < 0.5 (thin layers)")
+        beta = check_positive("beta", self.beta)
+        if beta >= 2 * math.pi:
+            raise ValueError(f"beta must be < 2 pi, got {self.beta!r}")
+        n = check_int("n_modes", self.n_modes, 1)
+        kt = check_positive("k_t", self.k_t)
+        ns = check_int("n_slip", self.n_slip, 0)
+        if not isinstance(self.static_shape, (bool, np.bool_)):
+            raise ValueError(f"static_shape must be True or False, got {self.static_shape!r}")
+        if self.static_shape and self.bc != "clamped-free":
+            object.__setattr__(self, "static_shape", False)
+        if self.n_quad is None:
+            nq = max(8, 4 * n) if ns == 0 else 2 * ns
+        else:
+            nq = check_int("n_quad", self.n_quad, 1)
+        object.__setattr__(self, "n_slip", ns)
+        zeta = check_nonnegative("damping", self.damping)
+        if zeta >= 1.0:
+            raise ValueError(f"damping must be < 1 (modal damping ratio), got {self.damping!r}")
+        if self.bc not in BCS:
+            raise ValueError(f"bc must be one of {BCS}, got {self.bc!r}")
+        am = 0.5 * (a1 + a2) if self.alpha_modes is None else check_positive("alpha_modes", self.alpha_modes)
+        object.__setattr__(self, "alpha1", a1)
+        object.__setattr__(self, "alpha2", a2)
+        object.__setattr__(self, "beta", beta)
+        object.__setattr__(self, "n_modes", n)
+        object.__setattr__(self, "k_t", kt)
+        object.__setattr__(self, "n_quad", nq)
+        object.__setattr__(self, "damping", zeta)
+        object.__setattr__(self, "alpha_modes", am)
+
+
+def _mode_cache_dir():
+    d = os.environ.get("BEAMSIM_MODE_CACHE")
+    if d is None:
+        d = os.path.join(os.path.expanduser("~"), ".cache", "beamsim", "modes")
+    return d
+
+
+@functools.lru_cache(maxsize=64)
+def single_layer_modes(alpha: float, beta: float, n_modes: int, bc: str = "clamped-free"):
+    """:func:`beamsim.modes.arch_modes` for a single layer of thickness ``alpha R``, cached in
+    memory and on disk (``$BEAMSIM_MODE_CACHE``, default ``~/.cache/beamsim/modes``; set it to
+    an empty string to disable the disk cache).  A cached set with more modes is sliced."""
+    from beamsim.modes import ArchModes, arch_modes
+
+    d = _mode_cache_dir()
+    key = f"{bc}_a{float(alpha).hex()}_b{float(beta).hex()}"
+    if d:
+        try:
+            for fn in sorted(os.listdir(d)):
+                if fn.startswith(key + "_n") and fn.endswith(".npz"):
+                    nc = int(fn[len(key) + 2:-4])
+                    if nc >= n_modes:
+                        z = np.load(os.path.join(d, fn))
+                        return ArchModes(alpha=float(alpha), beta=float(beta), bc=bc,
+                                         lam=z["lam"][:n_modes], roots=z["roots"][:n_modes],
+                                         theta_ref=z["theta_ref"][:n_modes],
+                                         coef_w=z["coef_w"][:n_modes], coef_u=z["coef_u"][:n_modes])
+        except (OSError, ValueError, KeyError):
+            pass
+    m = arch_modes(alpha, beta, n_modes, bc=bc)
+    if d:
+        try:
+            os.makedirs(d, exist_ok=True)
+            tmp = os.path.join(d, f".{key}_n{n_modes}.{os.getpid()}.tmp.npz")
+            np.savez(tmp, lam=m.lam, roots=m.roots, theta_ref=m.theta_ref, coef_w=m.coef_w,
+                     coef_u=m.coef_u)
+            os.replace(tmp, os.path.join(d, f"{key}_n{n_modes}.npz"))
+        except OSError:
+            pass
+    return m
+
+
+def pressure_at(theta: np.ndarray, p: float, p_profile=None) -> np.ndarray:
+    """Interlayer pressure ``p(theta_j) = p * profile(theta_j)`` at the interface points.
+
+    ``p_profile`` is ``None`` (uniform), a callable of theta (array -> array) or an array of
+    values at the interface points.  The result must be finite and >= 0.
+    """
+    p = check_nonnegative("p", p)
+    if p_profile is None:
+        shape = np.ones_like(theta)
+    elif callable(p_profile):
+        shape = np.asarray(p_profile(np.asarray(theta)), dtype=float) * np.ones_like(theta)
+    else:
+        shape = np.asarray(p_profile, dtype=float)
+        if shape.shape != theta.shape:
+            raise ValueError(f"p_profile must have one value per interface point ({theta.size}), "
+                             f"got shape {shape.shape}")
+    if not np.all(np.isfinite(shape)):
+        raise ValueError("p_profile must be finite")
+    if np.any(shape < 0):
+        raise ValueError("p_profile must be >= 0 (interlayer pressure cannot be negative)")
+    return p * shape
+
+
+# --------------------------------------------------------------------------- model
+@dataclass
+class TwoLayerModel:
+    """Galerkin matrices of the two-layer curved beam (see module docstring and docs/model.md)."""
+
+    geom: Geometry
+    modes: object = field(repr=False)
+    M: np.ndarray = field(repr=False)
+    K: np.ndarray = field(repr=False)
+    C: np.ndarray = field(repr=False)
+    S: np.ndarray = field(repr=False)
+    theta_q: np.ndarray = field(repr=False)
+    wq: np.ndarray = field(repr=False)
+    g: np.ndarray = field(repr=False)
+    tip: np.ndarray = field(repr=False)
+
+    # ---- sizes / names
+    @property
+    def n(self) -> int:
+        return self.M.shape[0]
+
+    @property
+    def n_quad(self) -> int:
+        return self.S.shape[0]
+
+    @property
+    def coord_names(self) -> list[str]:
+        N = self.geom.n_modes
+        names = [f"a{i+1}" for i in range(N)] + (["a_static"] if self.geom.static_shape else [])
+        m = (self.n - len(names)) // 2
+        for lay in (1, 2):
+            names += [f"d{lay}_{i+1}" for i in range(m)]
+        return names
+
+    tip_names = ("w_tip", "u1_tip", "u2_tip", "load_point")
+
+    # ---- derived matrices
+    @property
+    def K_interface(self) -> np.ndarray:
+        """``k_t S^T diag(wq) S``: stiffness of the stuck (elastic) interface."""
+        return self.geom.k_t * (self.S.T * self.wq) @ self.S
+
+    @property
+    def K_stuck(self) -> np.ndarray:
+        return self.K + self.K_interface
+
+    @functools.cached_property
+    def eig_frictionless(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lam, Phi) of ``K Phi = lam M Phi`` (free sliding, no interface traction)."""
+        return sla.eigh(self.K, self.M)
+
+    @functools.cached_property
+    def eig_stuck(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lam, Phi) with the elastic interface everywhere stuck (penalty ``k_t``)."""
+        return sla.eigh(self.K_stuck, self.M)
+
+    def eig_bonded_rigid(self) -> np.ndarray:
+        """Eigenvalues with the slip constrained to zero at every interface point (k_t -> inf)."""
+        Z = sla.null_space(self.S)
+        return sla.eigh(Z.T @ self.K @ Z, Z.T @ self.M @ Z, eigvals_only=True)
+
+    @property
+    def omega1_stuck(self) -> float:
+        """First natural angular frequency of the stuck (bonded, penalty) beam."""
+        return float(math.sqrt(self.eig_stuck[0][0]))
+
+    @property
+    def omega_max_stuck(self) -> float:
+        """Largest natural angular frequency of the stuck system (sets the explicit RK4 step)."""
+        return float(math.sqrt(self.eig_stuck[0][-1]))
+
+    @property
+    def omega_max_frictionless(self) -> float:
+        return float(math.sqrt(self.eig_frictionless[0][-1]))
+
+    @functools.cached_property
+    def static_unit(self) -> tuple[np.ndarray, np.ndarray]:
+        """Static stuck response to a unit tip force F = +1: (q, interface tractions tau_j)."""
+        q = np.linalg.solve(self.K_stuck, self.g)
+        return q, self.geom.k_t * (self.S @ q)
+
+    @functools.cached_property
+    def static_unit_frictionless(self) -> np.ndarray:
+        return np.linalg.solve(self.K, self.g)
+
+    def f_cr(self, mu_s: float, p: float, p_profile=None) -> float:
+        """Static initial-slip amplitude: the smallest ``f0`` for which the peak load ``2 f0`` of
+        ``F = f0 (cos tau - 1)`` makes the bonded (stuck) interface traction reach
+        ``mu_s p(theta)`` somewhere.  Linear in ``mu_s p``.
+        """
+        mu_s = check_nonnegative("mu_s", mu_s)
+        pj = pressure_at(self.theta_q, p, p_profile)
+        tau = np.abs(self.static_unit[1])
+        with np.errstate(divide="ignore"):
+            ratio = np.where(tau > 0, mu_s * pj / np.where(tau > 0, tau, 1.0), np.inf)
+        return float(0.5 * ratio.min())
+
+    def tip_response(self, q: np.ndarray) -> np.ndarray:
+        return self.tip @ q
+
+    def slip(self, q: np.ndarray) -> np.ndarray:
+        return self.S @ q
+
+    def mechanical_energy(self, q, v, z=None) -> float:
+        e = 0.5 * v @ self.M @ v + 0.5 * q @ self.K @ q
+        if z is not None:
+            r = self.S @ q - z
+            e += 0.5 * self.geom.k_t * np.sum(self.wq * r * r)
+        return float(e)
+
+
+def _hats(theta, beta, ns):
+    """Piecewise-linear functions on ns uniform elements, nodes k beta/ns, k = 1..ns
+    (zero at the clamped end), and their derivatives."""
+    if ns == 0:
+        return np.zeros((0, theta.size)), np.zeros((0, theta.size))
+    d = beta / ns
+    x = theta[None, :] / d - np.arange(1, ns + 1)[:, None]     # 0 at node k
+    h0 = np.clip(1.0 - np.abs(x), 0.0, None)
+    h1 = np.where((x > -1.0) & (x <= 0.0), 1.0 / d, np.where((x > 0.0) & (x < 1.0), -1.0 / d, 0.0))
+    return h0, h1
+
+
+def static_tip_shape(theta, alpha, beta):
+    """Static response (w, w', w'', u, u') of a clamped-free single-layer arch (thickness
+    alpha R) to a unit tip force in the load direction ``cos(beta) e_r - sin(beta) e_theta``
+    (closed form of the equilibrium equations of the energy V; docs/model.md)."""
+    th = np.asarray(theta, dtype=float)
+    k2 = alpha * alpha / 12.0
+    c1 = math.sin(beta) / k2
+    c2 = 0.5 * (1.0 / k2 + 1.0)
+    s, c = np.sin(th), np.cos(th)
+    w = (c1 * (1.0 - c) - c2 * (s - th * c)) / alpha
+    w1 = (c1 * s - c2 * th * s) / alpha
+    w2 = (c1 * c - c2 * (s + th * c)) / alpha
+    e = -s / alpha                                   # membrane strain w + u'
+    iw = (c1 * (th - s) - c2 * (2.0 - 2.0 * c - th * s)) / alpha
+    u = -(1.0 - c) / alpha - iw
+    u1 = e - w
+    return w, w1, w2, u, u1
+
+
+def _basis(modes, theta, ns=0, static=False):
+    """Shapes at theta: radial basis [W_n; w_s] with derivatives 0..2, and the axial basis
+    B = [U_n; W_n'; u_s; w_s'; hats] with its derivative B'."""
+    W0, W1, W2 = modes.W(theta, 0), modes.W(theta, 1), modes.W(theta, 2)
+    U0, U1 = modes.U(theta, 0), modes.U(theta, 1)
+    h0, h1 = _hats(theta, modes.beta, ns)
+    if static:
+        if modes.bc != "clamped-free":
+            raise ValueError("static_shape=True needs bc='clamped-free'")
+        ws, ws1, ws2, us, us1 = static_tip_shape(theta, modes.alpha, modes.beta)
+        sc = 1.0 / abs(static_tip_shape(np.array([modes.beta]), modes.alpha, modes.beta)[0][0])
+        ws, ws1, ws2, us, us1 = (x * sc for x in (ws, ws1, ws2, us, us1))
+        W0, W1, W2 = np.vstack([W0, ws]), np.vstack([W1, ws1]), np.vstack([W2, ws2])
+        return (W0, W1, W2, np.vstack([U0, W1, us[None, :], h0]),
+                np.vstack([U1, W2, us1[None, :], h1]))
+    return W0, W1, W2, np.vstack([U0, W1, h0]), np.vstack([U1, W2, h1])
+
+
+@functools.lru_cache(maxsize=64)
+def build_model(geom: Geometry) -> TwoLayerModel:
+    """Assemble M, K, C, S, g and the tip rows for ``geom`` (cached)."""
+    from beamsim.modes import gauss_legendre
+
+    N = geom.n_modes
+    a1, a2, beta = geom.alpha1, geom.alpha2, geom.beta
+    modes = single_layer_modes(geom.alpha_modes, beta, N, geom.bc)
+
+    ns = geom.n_slip
+    panels = max(8, 2 * N) if ns == 0 else ns * max(1, -(-16 // ns))
+    th, w = gauss_legendre(0.0, beta, max(400, 40 * N, 6 * panels), panels=panels)
+    st = geom.static_shape
+    W0, W1, W2, B0, B1 = _basis(modes, th, ns, st)
+    Nw = W0.shape[0]
+    # orthonormalise the enriched axial basis span{U_n, W_n'} (it is nearly linearly
+    # dependent for larger N); directions whose eigenvalue of the diagonally scaled Gram matrix
+    # is < AXIAL_RTOL are dropped (none for N <= 6)
+    G = (B0 * w) @ B0.T + beta**2 * (B1 * w) @ B1.T
+    dsc = 1.0 / np.sqrt(np.diag(G))
+    lg, Vg = np.linalg.eigh(G * dsc[:, None] * dsc[None, :])
+    keep = lg > AXIAL_RTOL * lg.max()
+    T = (dsc[:, None] * Vg[:, keep]) / np.sqrt(lg[keep])
+    B0, B1 = T.T @ B0, T.T @ B1
+    m = B0.shape[0]
+    n = Nw + 2 * m
+    ia = slice(0, Nw)
+    iu1 = slice(Nw, Nw + m)
+    iu2 = slice(Nw + m, Nw + 2 * m)
+
+    M = np.zeros((n, n))
+    M[ia, ia] = (a1 + a2) * (W0 * w) @ W0.T
+    Bm = (B0 * w) @ B0.T
+    M[iu1, iu1] = a1 * Bm
+    M[iu2, iu2] = a2 * Bm
+
+    K = np.zeros((n, n))
+    for alpha_i, iu in ((a1, iu1), (a2, iu2)):
+        k2 = alpha_i**2 / 12.0
+        idx = np.r_[np.arange(Nw), np.arange(n)[iu]]
+        eps = np.vstack([W0, B1])           # d(w + u')/dq on [a, d_i]
+        kap = np.vstack([W2, -B1])          # d(w'' - u')/dq
+        Ki = alpha_i * ((eps * w) @ eps.T + k2 * (kap * w) @ kap.T)
+        K[np.ix_(idx, idx)] += Ki
+    M = 0.5 * (M + M.T)
+    K = 0.5 * (K + K.T)
+
+    # interface points
+    if ns == 0:
+        xg, wg = np.polynomial.legendre.leggauss(geom.n_quad)
+        theta_q = 0.5 * beta * (xg + 1.0)
+        wq = 0.5 * beta * wg
+    else:
+        theta_q, wq = gauss_legendre(0.0, beta, geom.n_quad, panels=ns)
+        if theta_q.size != geom.n_quad:
+            raise ValueError(f"n_quad must be a multiple of n_slip ({ns}), got {geom.n_quad}")
+    Wq0, Wq1, _, Bq0, _ = _basis(modes, theta_q, ns, st)
+    Bq0 = T.T @ Bq0
+    S = np.zeros((geom.n_quad, n))
+    S[:, ia] = 0.5 * (a1 + a2) * Wq1.T
+    if SLIP_U_TERMS:
+        S[:, iu1] = (1.0 - 0.5 * a1) * Bq0.T
+        S[:, iu2] = -(1.0 + 0.5 * a2) * Bq0.T
+    else:
+        S[:, iu1] = Bq0.T
+        S[:, iu2] = -Bq0.T
+
+    # tip
+    tb = np.array([beta])
+    Wt0, _, _, Bt0, _ = _basis(modes, tb, ns, st)
+    Bt0 = T.T @ Bt0
+    tip = np.zeros((4, n))
+    tip[0, ia] = Wt0[:, 0]
+    tip[1, iu1] = Bt0[:, 0]
+    tip[2, iu2] = Bt0[:, 0]
+    g = math.cos(beta) * tip[0] - math.sin(beta) * tip[1]
+    tip[3] = g
+
+    # modal damping on the frictionless structure
+    if geom.damping > 0:
+        lam0, Phi0 = sla.eigh(K, M)
+        om0 = np.sqrt(np.maximum(lam0, 0.0))
+        MP = M @ Phi0
+        C = (MP * (2.0 * geom.damping * om0)) @ MP.T
+        C = 0.5 * (C + C.T)
+    else:
+        C = np.zeros((n, n))
+    return TwoLayerModel(geom=geom, modes=modes, M=M, K=K, C=C, S=S, theta_q=theta_q, wq=wq,
+                         g=g, tip=tip)
