@@ -122,9 +122,9 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
 
 
 def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: int = 130) -> None:
-    """Largest Lyapunov exponent per forcing period (Stefanski), map or curve."""
+    """Largest Lyapunov exponent per forcing period (two-trajectory estimate), map or curve."""
     axes = list(grid["axes"])
-    per_period = table["lle_stefanski"] * 2.0 * np.pi / table["omega"]
+    per_period = table["lle_two_trajectory"] * 2.0 * np.pi / table["omega"]
     if len(axes) == 2:
         xa, ya = axes
         xs, ys = np.sort(table[xa].unique()), np.sort(table[ya].unique())
@@ -145,7 +145,7 @@ def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: in
     else:
         xa = axes[0]
         fig, ax = plt.subplots(figsize=(9, 4), constrained_layout=True)
-        for col, style in (("lle_stefanski", "o-"), ("lle_benettin", "s--")):
+        for col, style in (("lle_two_trajectory", "o-"), ("lle_nolds", "s--"), ("lle_stefanski", "^:")):
             if col in table.columns:
                 ax.plot(table[xa], table[col] * 2 * np.pi / table["omega"], style, ms=3, label=col[4:])
         ax.axhline(0, color="0.5", lw=0.8)

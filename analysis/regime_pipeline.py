@@ -41,26 +41,40 @@ def _cached_stage(points: Sequence[dict], store: PointStore, compute: Callable[[
 
 
 # ----------------------------------------------------------------------------- simulate
-def _simulate_group(points: list[dict], numerics: dict, threads: int) -> list[dict]:
-    from beamsim.simulate import simulate_batch
+def integrator(method: str, params: dict) -> str:
+    """``auto``: the exact piecewise-linear ``expo`` integrator where it applies (stick-slip),
+    the RK4 reference otherwise."""
+    if method != "auto":
+        return method
+    return "expo" if params.get("law", "stick-slip") == "stick-slip" else "rk4"
 
-    res = simulate_batch([p["params"] for p in points], n_transient=numerics["n_transient"],
-                         n_record=numerics["n_record"], method=numerics["method"],
+
+def _simulate_group(points: list[dict], numerics: dict, threads: int) -> list[dict]:
+    """Reference and twin trajectories of each point in one batch, recorded from t = 0."""
+    from analysis.beam_lyapunov import twin_perturbation
+    from beamsim.simulate import prepare_point, simulate_batch
+
+    n_trans, n_rec = numerics["n_transient"], numerics["n_record"]
+    twins = [p["params"] | {"q0": twin_perturbation(prepare_point(**p["params"]))} for p in points]
+    res = simulate_batch([p["params"] for p in points] + twins, n_transient=0, n_record=n_trans + n_rec,
+                         method=integrator(numerics["method"], points[0]["params"]),
                          steps_per_period=numerics.get("steps_per_period"), n_threads=threads)
     out = []
-    for r in res.results:
-        w_in = float(r.energy[-1, 0]) if r.energy.size else np.nan
+    for r, tw in zip(res.results[: len(points)], res.results[len(points):]):
+        energy = r.energy[n_trans:]
+        w_in = float(energy[-1, 0] - energy[0, 0])
+        residual = r.energy_residual[-1] - r.energy_residual[n_trans]
+        diss = np.diff(energy[:, 1])
         out.append({
-            "poincare_state": r.poincare_state, "poincare_tip": r.poincare_tip,
-            "final_state": np.asarray(getattr(r, "final_state", np.full(0, np.nan))),
-            "diss_per_cycle_series": r.diss_per_cycle,
+            "poincare_state": r.poincare_state[n_trans:], "poincare_tip": r.poincare_tip[n_trans:],
+            "poincare_state_all": r.poincare_state, "twin_state_all": tw.poincare_state,
             "f0": r.f0, "f_cr": r.f_cr, "omega": r.omega, "Omega": r.Omega, "lam_f": r.lam_f,
             "steps_per_period": r.steps_per_period, "method": r.method,
-            "diverged": r.diverged, "t_diverged": r.t_diverged,
+            "diverged": bool(r.diverged or tw.diverged), "t_diverged": r.t_diverged,
             "slipped": r.slipped, "t_first_slip": r.t_first_slip,
-            "stick_fraction": r.stick_fraction, "stick_fraction_all": r.stick_fraction_all,
-            "diss_per_cycle": float(np.nanmean(r.diss_per_cycle)) if np.isfinite(r.diss_per_cycle).any() else np.nan,
-            "energy_residual_rel": float(abs(r.energy_residual[-1]) / w_in) if w_in > 0 else np.nan,
+            "stick_fraction": r.stick_fraction,
+            "diss_per_cycle": float(np.mean(diss)) if np.isfinite(diss).all() else np.nan,
+            "energy_residual_rel": float(abs(residual) / abs(w_in)) if w_in != 0 else np.nan,
         })
     return out
 
@@ -70,10 +84,11 @@ def simulate_points(points: Sequence[dict], numerics: dict, store_root: str, thr
     store = PointStore(store_root, "simulate")
 
     def compute(batch: list[dict]) -> list[dict]:
-        # a batch must share the state size: group by (n_modes, n_quad)
+        # a batch must share the state size and the integrator
         groups: dict = {}
         for i, p in enumerate(batch):
-            groups.setdefault((p["params"].get("n_modes"), p["params"].get("n_quad")), []).append(i)
+            key = (p["params"].get("n_modes"), p["params"].get("n_quad"), integrator(numerics["method"], p["params"]))
+            groups.setdefault(key, []).append(i)
         recs: list = [None] * len(batch)
         for idx in groups.values():
             for i, rec in zip(idx, _simulate_group([batch[i] for i in idx], numerics, threads)):
@@ -99,6 +114,41 @@ def poincare_array(value) -> np.ndarray:
     return np.array([np.asarray(r, dtype=float) for r in value], dtype=float)
 
 
+# ----------------------------------------------------------------------------- lyapunov
+def lyapunov_points(points: Sequence[dict], simulated: pd.DataFrame, numerics: dict) -> pd.DataFrame:
+    """Stage 2: ``lambda_1`` (per unit time) of every point.
+
+    * ``lle_two_trajectory``: separation of the twin trajectories integrated by stage 1
+      (:func:`analysis.beam_lyapunov.twin_lle`);
+    * ``lle_nolds``: Rosenstein's estimate (``nolds.lyap_r``) on the stroboscopic series of the
+      tip radial displacement (NaN when the record is too short for the embedding);
+    * ``lle_stefanski``: not computed for the beam yet (NaN; see docs/pipeline.md).
+    """
+    from analysis.beam_lyapunov import twin_lle
+    from analysis.lyapunov import nolds_lle
+
+    sim = simulated.set_index("point_id")
+    emb_dim = int(numerics.get("lyapunov", {}).get("nolds_emb_dim", 6))
+    rows = []
+    for i, p in enumerate(points):
+        r = sim.loc[p["point_id"]]
+        period = 2.0 * np.pi / r["omega"]
+        est = twin_lle(poincare_array(r["poincare_state_all"]), poincare_array(r["twin_state_all"]),
+                       period, settled_from=numerics["n_transient"])
+        series = poincare_array(r["poincare_tip"])[:, 0]
+        try:
+            lle_nolds = float(nolds_lle(series, sample_dt=period, emb_dim=emb_dim).value)
+        except Exception as exc:  # nolds rejects short or constant series
+            log.info("nolds: point %s: %s", p["point_id"], exc)
+            lle_nolds = np.nan
+        rows.append({"point_id": p["point_id"], "lle_two_trajectory": est.value,
+                     "lle_two_trajectory_verdict": est.verdict, "lle_nolds": lle_nolds,
+                     "lle_stefanski": np.nan})
+        if (i + 1) % 25 == 0 or i + 1 == len(points):
+            log.info("lyapunov: %d / %d points done", i + 1, len(points))
+    return pd.DataFrame(rows)
+
+
 # ----------------------------------------------------------------------------- classify
 def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame) -> pd.DataFrame:
     """Stage 3: a label per point from its Poincare samples and its largest Lyapunov exponent.
@@ -106,7 +156,7 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame) -> pd.DataF
     Non-results first: ``diverged`` (the integrator flagged the point), ``unsettled``
     (:func:`analysis.regimes.is_settled` says the transient is not over); otherwise
     :func:`analysis.regimes.classify` on the stroboscopic samples of all generalised
-    coordinates and velocities, with ``lambda_1`` (Stefanski) per forcing period.
+    coordinates and velocities, with ``lambda_1`` (two-trajectory estimate) per forcing period.
     """
     from analysis.regimes import DIVERGED, UNSETTLED, classify, is_settled
 
@@ -115,7 +165,7 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame) -> pd.DataF
     for _, sim in simulated.iterrows():
         pid = sim["point_id"]
         period_t = 2.0 * np.pi / sim["omega"]
-        lam = lle.loc[pid, "lle_stefanski"] if pid in lle.index else np.nan
+        lam = lle.loc[pid, "lle_two_trajectory"] if pid in lle.index else np.nan
         row = {"point_id": pid, "label": None, "period": None, "reason": "", "K": np.nan,
                "spectral_growth": np.nan, "n_clusters": np.nan, "settled": False}
         x = poincare_array(sim["poincare_state"])
@@ -139,10 +189,10 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame) -> pd.DataF
 # ----------------------------------------------------------------------------- regime table
 #: columns of the regime table besides the model parameters (docs/pipeline.md)
 TABLE_COLUMNS = (
-    "point_id", "label", "period", "lle_stefanski", "lle_benettin", "lle_nolds", "K",
+    "point_id", "label", "period", "lle_two_trajectory", "lle_stefanski", "lle_nolds", "K",
     "spectral_growth", "n_clusters", "slipped", "t_first_slip", "stick_fraction",
-    "diss_per_cycle", "f0", "f_cr", "omega", "lam_f", "diverged", "settled",
-    "energy_residual_rel", "reason",
+    "diss_per_cycle", "f0", "f_cr", "omega", "Omega", "lam_f", "diverged", "settled",
+    "energy_residual_rel", "lle_two_trajectory_verdict", "reason",
 )
 
 
@@ -225,10 +275,12 @@ def portrait_case(row: pd.Series, axes: list[str], numerics: dict, samples_per_p
     from beamsim.simulate import simulate
 
     params = json.loads(row["params_json"])
-    spp = int(numerics.get("steps_per_period") or 256)
-    spp = max(samples_per_period, int(np.ceil(spp / samples_per_period) * samples_per_period))
-    r = simulate(n_transient=numerics["n_transient"], n_record=numerics["n_record"], method=numerics["method"],
-                 steps_per_period=spp, dense_per_period=samples_per_period, **params)
+    spp = numerics.get("steps_per_period")
+    if spp is not None:
+        spp = max(samples_per_period, int(np.ceil(spp / samples_per_period) * samples_per_period))
+    r = simulate(n_transient=numerics["n_transient"], n_record=numerics["n_record"],
+                 method=integrator(numerics["method"], params), steps_per_period=spp,
+                 dense_per_period=samples_per_period, **params)
     t, w = r.dense_t, r.dense[:, 0]
     w_dot = np.gradient(w, t)
     tail = slice(len(t) - n_show * samples_per_period - 1, len(t))
@@ -237,3 +289,12 @@ def portrait_case(row: pd.Series, axes: list[str], numerics: dict, samples_per_p
     where = ", ".join(f"{a}={row[a]:g}" for a in axes)
     title = f"{where}: {row['label']}" + (f" (period {int(row['period'])})" if pd.notna(row["period"]) else "")
     return {"title": title, "t": t[tail], "w": w[tail], "w_dot": w_dot[tail], "pw": w[pidx], "pw_dot": w_dot[pidx]}
+
+
+def register_cached_modes(files: Sequence[str]) -> None:
+    """Hand the workflow's cached arch modes (one Parquet file per geometry) to the model."""
+    from beamsim.mode_cache import read_modes
+    from beamsim.two_layer import register_modes
+
+    for f in files:
+        register_modes(read_modes(f))

@@ -157,46 +157,33 @@ class Geometry:
         object.__setattr__(self, "alpha_modes", am)
 
 
-def _mode_cache_dir():
-    d = os.environ.get("BEAMSIM_MODE_CACHE")
-    if d is None:
-        d = os.path.join(os.path.expanduser("~"), ".cache", "beamsim", "modes")
-    return d
+#: modes supplied from outside (the workflow's per-geometry cache), keyed by
+#: (alpha, beta, bc); a set with more modes than asked for is sliced
+_REGISTERED_MODES: dict = {}
+
+
+def register_modes(modes) -> None:
+    """Make :func:`single_layer_modes` use ``modes`` (an :class:`beamsim.modes.ArchModes`, e.g.
+    read from the workflow's cache ``results/modes/<key>/modes.parquet``) instead of computing."""
+    key = (float(modes.alpha), float(modes.beta), modes.bc)
+    old = _REGISTERED_MODES.get(key)
+    if old is None or old.n_modes < modes.n_modes:
+        _REGISTERED_MODES[key] = modes
+        single_layer_modes.cache_clear()
 
 
 @functools.lru_cache(maxsize=64)
 def single_layer_modes(alpha: float, beta: float, n_modes: int, bc: str = "clamped-free"):
-    """:func:`beamsim.modes.arch_modes` for a single layer of thickness ``alpha R``, cached in
-    memory and on disk (``$BEAMSIM_MODE_CACHE``, default ``~/.cache/beamsim/modes``; set it to
-    an empty string to disable the disk cache).  A cached set with more modes is sliced."""
+    """:func:`beamsim.modes.arch_modes` for a single layer of thickness ``alpha R``, memoised;
+    modes registered with :func:`register_modes` are used (sliced) when they cover ``n_modes``."""
     from beamsim.modes import ArchModes, arch_modes
 
-    d = _mode_cache_dir()
-    key = f"{bc}_a{float(alpha).hex()}_b{float(beta).hex()}"
-    if d:
-        try:
-            for fn in sorted(os.listdir(d)):
-                if fn.startswith(key + "_n") and fn.endswith(".npz"):
-                    nc = int(fn[len(key) + 2:-4])
-                    if nc >= n_modes:
-                        z = np.load(os.path.join(d, fn))
-                        return ArchModes(alpha=float(alpha), beta=float(beta), bc=bc,
-                                         lam=z["lam"][:n_modes], roots=z["roots"][:n_modes],
-                                         theta_ref=z["theta_ref"][:n_modes],
-                                         coef_w=z["coef_w"][:n_modes], coef_u=z["coef_u"][:n_modes])
-        except (OSError, ValueError, KeyError):
-            pass
-    m = arch_modes(alpha, beta, n_modes, bc=bc)
-    if d:
-        try:
-            os.makedirs(d, exist_ok=True)
-            tmp = os.path.join(d, f".{key}_n{n_modes}.{os.getpid()}.tmp.npz")
-            np.savez(tmp, lam=m.lam, roots=m.roots, theta_ref=m.theta_ref, coef_w=m.coef_w,
-                     coef_u=m.coef_u)
-            os.replace(tmp, os.path.join(d, f"{key}_n{n_modes}.npz"))
-        except OSError:
-            pass
-    return m
+    reg = _REGISTERED_MODES.get((float(alpha), float(beta), bc))
+    if reg is not None and reg.n_modes >= n_modes:
+        return ArchModes(alpha=reg.alpha, beta=reg.beta, bc=reg.bc, lam=reg.lam[:n_modes],
+                         roots=reg.roots[:n_modes], theta_ref=reg.theta_ref[:n_modes],
+                         coef_w=reg.coef_w[:n_modes], coef_u=reg.coef_u[:n_modes])
+    return arch_modes(alpha, beta, n_modes, bc=bc)
 
 
 def pressure_at(theta: np.ndarray, p: float, p_profile=None) -> np.ndarray:

@@ -23,7 +23,6 @@ rule lyapunov_chunk:
     params:
         points=chunk_payload,
         numerics=RESULT_NUMERICS,
-    threads: 2
     log:
         "logs/regimes/{grid}/lyapunov_{chunk}.log",
     conda:
