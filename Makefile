@@ -18,7 +18,7 @@ $(STAMP): pyproject.toml
 
 # Main job on the default config.
 run: $(STAMP)
-	$(BIN)/snakemake -c2 modes
+	$(BIN)/snakemake -c2 regimes
 
 # Whole test suite.
 test: $(STAMP)

@@ -156,7 +156,8 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame) -> pd.DataF
     Non-results first: ``diverged`` (the integrator flagged the point), ``unsettled``
     (:func:`analysis.regimes.is_settled` says the transient is not over); otherwise
     :func:`analysis.regimes.classify` on the stroboscopic samples of all generalised
-    coordinates and velocities, with ``lambda_1`` (two-trajectory estimate) per forcing period.
+    coordinates and velocities, with ``lambda_1`` (two-trajectory estimate) per forcing period
+    when that estimate is a proper fit (else the other indicators decide alone).
     """
     from analysis.regimes import DIVERGED, UNSETTLED, classify, is_settled
 
@@ -166,6 +167,10 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame) -> pd.DataF
         pid = sim["point_id"]
         period_t = 2.0 * np.pi / sim["omega"]
         lam = lle.loc[pid, "lle_two_trajectory"] if pid in lle.index else np.nan
+        # only a proper fit is evidence; a separation that saturates within a few periods
+        # (a stick/slip outcome flipped by the perturbation) is not an exponent
+        if pid not in lle.index or not str(lle.loc[pid, "lle_two_trajectory_verdict"]).startswith("fit over"):
+            lam = np.nan
         row = {"point_id": pid, "label": None, "period": None, "reason": "", "K": np.nan,
                "spectral_growth": np.nan, "n_clusters": np.nan, "settled": False}
         x = poincare_array(sim["poincare_state"])

@@ -49,8 +49,9 @@ CASES = [
     Case("modes", ("results/modes/*/modes.parquet",
                    "results/modes/*/characteristic_function.png",
                    "results/modes/*/mode_shapes.png")),
-    # once the regime pipeline lands, e.g.:
-    # Case("regimes", ("results/regimes/*.parquet",), overrides={<a 2 x 2 grid, short runs>}),
+    Case("regimes", ("results/regimes/*.parquet", "results/regimes/*/regimes.png"),
+         overrides={"grid_file": str(ROOT / "tests" / "data" / "grid_tiny.yaml"),
+                    "numerics": {"n_transient": 4, "n_record": 128, "chunk_size": 1}}),
 ]
 
 

@@ -1,0 +1,113 @@
+"""The regime pipeline end to end on a tiny grid: outputs, metadata, incrementality,
+reproducibility across core counts, and config errors that stop before any job."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import pytest
+import yaml
+
+from analysis.regime_pipeline import read_regime_metadata
+
+ROOT = Path(__file__).resolve().parents[1]
+GRID = {"grids": {"tiny": {"axes": {"f0_rel": [0.5, 3.0]}, "fixed": {"Omega": 2.5, "mu_s": 0.45, "mu_k": 0.3},
+                           "mark": [{"f0_rel": 3.0}]}}}
+
+
+def snakemake(workdir: Path, *args: str, cores: int = 2) -> subprocess.CompletedProcess:
+    cmd = [sys.executable, "-m", "snakemake", "-s", str(ROOT / "Snakefile"), "-d", str(workdir),
+           f"-c{cores}", *args, "--configfile", str(workdir / "config.yaml")]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=900,
+                          env=os.environ | {"PYTHONPATH": str(ROOT)})
+
+
+def setup_workdir(path: Path, grid: dict = GRID, **numerics) -> Path:
+    cfg = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    cfg["numerics"].update({"n_transient": 4, "n_record": 128, "chunk_size": 1} | numerics)
+    cfg["grid_file"] = str(path / "grid.yaml")
+    path.mkdir(parents=True, exist_ok=True)
+    (path / "config.yaml").write_text(yaml.safe_dump(cfg))
+    (path / "grid.yaml").write_text(yaml.safe_dump(grid))
+    return path
+
+
+@pytest.fixture(scope="module")
+def first_run(tmp_path_factory):
+    work = setup_workdir(tmp_path_factory.mktemp("regimes"))
+    res = snakemake(work, "regimes")
+    assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
+    return work
+
+
+def test_dry_run_of_every_target():
+    for target in ("regimes", "modes", "all"):
+        res = subprocess.run([sys.executable, "-m", "snakemake", "-n", target], cwd=ROOT, capture_output=True,
+                             text=True, timeout=300)
+        assert res.returncode == 0, (target, res.stderr[-2000:])
+
+
+def test_outputs_table_schema_and_metadata(first_run):
+    out = first_run / "results" / "regimes"
+    for name in ("tiny.parquet", "tiny/regimes.png", "tiny/lle.png", "tiny/portraits.png"):
+        assert (out / name).stat().st_size > 0, name
+    table = pd.read_parquet(out / "tiny.parquet")
+    assert list(table["f0_rel"]) == [0.5, 3.0]  # grid order
+    for col in ("point_id", "label", "period", "lle_two_trajectory", "lle_nolds", "lle_stefanski", "K",
+                "slipped", "t_first_slip", "stick_fraction", "diss_per_cycle", "diverged", "settled",
+                "params_json", "poincare_w_tip", "reason"):
+        assert col in table.columns, col
+    assert set(table["label"]) <= {"periodic", "quasi-periodic", "chaotic", "diverged", "unsettled"}
+    assert table["point_id"].is_unique
+    meta = read_regime_metadata(out / "tiny.parquet")
+    assert len(meta["config_hash"]) == 16 and meta["grid_name"] == "tiny"
+    assert meta["versions"]["numpy"] and meta["grid"]["fixed"]["Omega"] == 2.5
+
+
+def test_adding_a_point_computes_only_the_new_one(first_run, tmp_path):
+    grid = yaml.safe_load(yaml.safe_dump(GRID))
+    grid["grids"]["tiny"]["axes"]["f0_rel"] = [0.5, 1.5, 3.0]
+    (first_run / "grid.yaml").write_text(yaml.safe_dump(grid))
+    res = snakemake(first_run, "regimes")
+    assert res.returncode == 0, res.stderr[-3000:]
+    logs = "".join(p.read_text() for p in (first_run / "logs" / "regimes" / "tiny").glob("simulate_*.log"))
+    computed = sum(int(line.split(" cached, ")[1].split()[0]) for line in logs.splitlines() if " cached, " in line)
+    assert computed == 1, logs
+    table = pd.read_parquet(first_run / "results" / "regimes" / "tiny.parquet")
+    assert list(table["f0_rel"]) == [0.5, 1.5, 3.0]
+    (first_run / "grid.yaml").write_text(yaml.safe_dump(GRID))  # restore for the other tests
+
+
+def test_same_config_same_table_whatever_the_core_count(first_run, tmp_path):
+    other = setup_workdir(tmp_path / "again")
+    res = snakemake(other, "results/regimes/tiny.parquet", cores=1)
+    assert res.returncode == 0, res.stderr[-3000:]
+    res = snakemake(first_run, "results/regimes/tiny.parquet")  # first_run's grid restored above
+    assert res.returncode == 0, res.stderr[-3000:]
+    a = pd.read_parquet(first_run / "results" / "regimes" / "tiny.parquet")
+    b = pd.read_parquet(other / "results" / "regimes" / "tiny.parquet")
+    pd.testing.assert_frame_equal(a, b)
+    assert read_regime_metadata(other / "results/regimes/tiny.parquet")["config_hash"] == \
+        read_regime_metadata(first_run / "results/regimes/tiny.parquet")["config_hash"]
+
+
+@pytest.mark.parametrize(
+    "grid,expected",
+    [
+        ({"grids": {"g": {"axes": {"Omega": [1.0, -2.0]}}}}, "grids.g.axes.Omega = -2.0"),
+        ({"grids": {"g": {"axes": {"Omgea": [1.0]}}}}, "unknown model parameter 'Omgea'"),
+        ({"grids": {"g": {"axes": {"Omega": [1.0]}, "fixed": {"mu_s": -1}}}}, "grids.g.fixed.mu_s = -1"),
+        ({"grids": {"g": {"axes": {"Omega": {"range": [1, 2]}}}}}, "grids.g.axes.Omega"),
+    ],
+)
+def test_bad_grid_is_one_line_before_any_job(tmp_path, grid, expected):
+    work = setup_workdir(tmp_path / "bad", grid=grid)
+    res = snakemake(work, "regimes")
+    assert res.returncode != 0
+    lines = [ln for ln in (res.stdout + res.stderr).splitlines() if ln.startswith("invalid config:")]
+    assert len(lines) == 1 and expected in lines[0], res.stderr[-2000:]
+    assert not (work / "results").exists()
