@@ -1,13 +1,8 @@
-"""analysis: Lyapunov exponents, Poincare sections and regime classification.
+"""analysis: Lyapunov exponents, Poincare sections, regime classification, pipeline stages
+and figures.
 
-The project parallelises over parameter points (numba threads, Snakemake jobs); the
-linear algebra it does is on tiny matrices (6x6 to 20x20), where a multi-threaded BLAS
-only adds overhead (measured: a 20x20 ``expm`` takes 26 us single-threaded and 16 ms with
-OpenBLAS threads competing for 2 busy cores).  Unless the user set them, BLAS thread
-counts are therefore pinned to 1 before numpy is first imported.
+Importing :mod:`beamsim` first applies its single-threaded-BLAS default (see
+``beamsim/__init__.py``) before numpy is loaded by any analysis module.
 """
 
-import os as _os
-
-for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    _os.environ.setdefault(_var, "1")
+import beamsim as _beamsim  # noqa: F401

@@ -60,7 +60,9 @@ def _fixed_title(grid_name: str, table: pd.DataFrame, axes: list[str]) -> str:
             if len(vals) == 1:
                 v = vals[0]
                 parts.append(f"{k}={v:g}" if isinstance(v, (int, float, np.floating)) else f"{k}={v}")
-    return f"grid '{grid_name}': " + ", ".join(parts)
+    import textwrap
+
+    return textwrap.fill(f"grid '{grid_name}': " + ", ".join(parts), width=90)
 
 
 def _edges(values: np.ndarray, log: bool) -> np.ndarray:

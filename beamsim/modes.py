@@ -340,6 +340,14 @@ class ArchModes:
     def n_modes(self) -> int:
         return int(self.lam.size)
 
+    def truncated(self, n_modes: int) -> "ArchModes":
+        """The first ``n_modes`` modes (``1 <= n_modes <= self.n_modes``)."""
+        n = _check_n_modes(n_modes)
+        if n > self.n_modes:
+            raise ValueError(f"n_modes must be <= {self.n_modes} (modes available), got {n}")
+        return ArchModes(alpha=self.alpha, beta=self.beta, bc=self.bc, lam=self.lam[:n], roots=self.roots[:n],
+                         theta_ref=self.theta_ref[:n], coef_w=self.coef_w[:n], coef_u=self.coef_u[:n])
+
     @property
     def k2(self) -> float:
         """``k^2 = alpha^2 / 12``."""

@@ -176,13 +176,11 @@ def register_modes(modes) -> None:
 def single_layer_modes(alpha: float, beta: float, n_modes: int, bc: str = "clamped-free"):
     """:func:`beamsim.modes.arch_modes` for a single layer of thickness ``alpha R``, memoised;
     modes registered with :func:`register_modes` are used (sliced) when they cover ``n_modes``."""
-    from beamsim.modes import ArchModes, arch_modes
+    from beamsim.modes import arch_modes
 
     reg = _REGISTERED_MODES.get((float(alpha), float(beta), bc))
     if reg is not None and reg.n_modes >= n_modes:
-        return ArchModes(alpha=reg.alpha, beta=reg.beta, bc=reg.bc, lam=reg.lam[:n_modes],
-                         roots=reg.roots[:n_modes], theta_ref=reg.theta_ref[:n_modes],
-                         coef_w=reg.coef_w[:n_modes], coef_u=reg.coef_u[:n_modes])
+        return reg.truncated(n_modes)
     return arch_modes(alpha, beta, n_modes, bc=bc)
 
 

@@ -199,3 +199,12 @@ def test_shape_evaluation_rejects_outside_arch(paper_modes):
         paper_modes.W([0.5])
     with pytest.raises(ValueError, match="d"):
         paper_modes.U([0.1], d=-1)
+
+
+def test_truncated_keeps_the_first_modes(paper_modes):
+    two = paper_modes.truncated(2)
+    np.testing.assert_array_equal(two.lam, paper_modes.lam[:2])
+    th = np.linspace(0, paper_modes.beta, 5)
+    np.testing.assert_array_equal(two.W(th), paper_modes.W(th)[:2])
+    with pytest.raises(ValueError, match="n_modes"):
+        paper_modes.truncated(9)

@@ -147,3 +147,17 @@ def test_bad_geometry_raises(kwargs, name):
 def test_bad_friction_raises(kwargs, name):
     with pytest.raises(ValueError, match=name):
         Friction(**kwargs)
+
+
+def test_registered_modes_are_used_instead_of_recomputed():
+    """The workflow hands its cached modes to the model with register_modes."""
+    from beamsim.modes import arch_modes
+    from beamsim.two_layer import register_modes
+
+    alpha, beta = 0.0061, 0.43  # a geometry no other test uses
+    cached = arch_modes(alpha, beta, 4)
+    fake = cached.truncated(4)
+    object.__setattr__(fake, "lam", cached.lam * 1.5)  # distinguishable from a recomputation
+    register_modes(fake)
+    got = single_layer_modes(alpha, beta, 3)
+    np.testing.assert_array_equal(got.lam, cached.lam[:3] * 1.5)
