@@ -29,7 +29,8 @@ ROOT = Path(__file__).resolve().parents[1]
 VENV_BIN = str(Path(sys.executable).parent)
 RUN_TIMEOUT = 300  # seconds for one snakemake run (the SLURM one takes ~30 s here)
 
-pytestmark = pytest.mark.slow
+# slow; and one local cluster per session: keep every SLURM test on one xdist worker
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("slurm")]
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,9 @@ import yaml
 
 from analysis.regime_pipeline import read_regime_metadata
 
+# the tests share one built working directory: keep them on one xdist worker
+pytestmark = pytest.mark.xdist_group("regimes")
+
 ROOT = Path(__file__).resolve().parents[1]
 GRID = {"grids": {"tiny": {"axes": {"f0_rel": [0.5, 3.0]}, "fixed": {"Omega": 2.5, "mu_s": 0.45, "mu_k": 0.3},
                            "mark": [{"f0_rel": 3.0}]}}}
@@ -71,15 +74,21 @@ def test_outputs_table_schema_and_metadata(first_run):
 def test_adding_a_point_computes_only_the_new_one(first_run, tmp_path):
     grid = yaml.safe_load(yaml.safe_dump(GRID))
     grid["grids"]["tiny"]["axes"]["f0_rel"] = [0.5, 1.5, 3.0]
+    log_dir = first_run / "logs" / "regimes" / "tiny"
+    for old in log_dir.glob("simulate_*.log"):  # count only what this run computes
+        old.unlink()
     (first_run / "grid.yaml").write_text(yaml.safe_dump(grid))
-    res = snakemake(first_run, "regimes")
-    assert res.returncode == 0, res.stderr[-3000:]
-    logs = "".join(p.read_text() for p in (first_run / "logs" / "regimes" / "tiny").glob("simulate_*.log"))
-    computed = sum(int(line.split(" cached, ")[1].split()[0]) for line in logs.splitlines() if " cached, " in line)
-    assert computed == 1, logs
-    table = pd.read_parquet(first_run / "results" / "regimes" / "tiny.parquet")
-    assert list(table["f0_rel"]) == [0.5, 1.5, 3.0]
-    (first_run / "grid.yaml").write_text(yaml.safe_dump(GRID))  # restore for the other tests
+    try:
+        res = snakemake(first_run, "regimes")
+        assert res.returncode == 0, res.stderr[-3000:]
+        logs = "".join(p.read_text() for p in log_dir.glob("simulate_*.log"))
+        computed = sum(int(line.split(" cached, ")[1].split()[0]) for line in logs.splitlines()
+                       if " cached, " in line)
+        assert computed == 1, logs
+        table = pd.read_parquet(first_run / "results" / "regimes" / "tiny.parquet")
+        assert list(table["f0_rel"]) == [0.5, 1.5, 3.0]
+    finally:
+        (first_run / "grid.yaml").write_text(yaml.safe_dump(GRID))  # restore for the other tests
 
 
 def test_same_config_same_table_whatever_the_core_count(first_run, tmp_path):
