@@ -7,6 +7,11 @@ min_version("9.0")
 configfile: "config/config.yaml"
 
 
+wildcard_constraints:
+    grid=r"[A-Za-z0-9_-]+",  # grid names (workflow/schemas/grid.schema.yaml)
+    chunk=r"[0-9]{3}",
+
+
 include: "workflow/rules/common.smk"
 include: "workflow/rules/modes.smk"
 include: "workflow/rules/regimes.smk"

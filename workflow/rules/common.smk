@@ -80,7 +80,10 @@ validate_grid_values(GRIDS["grids"], yaml.safe_load((SCHEMAS / "config.schema.ya
 
 #: numerics that change results enter every point id
 RESULT_NUMERICS = {k: v for k, v in config["numerics"].items() if k != "chunk_size"}
-CONFIG_HASH = hashlib.sha256(canonical_json({"config": config, "grids": GRIDS}).encode()).hexdigest()[:16]
+#: the config as stored with every table and hashed: contents only (the grid file's location
+#: is not part of the result; its contents are)
+TABLE_CONFIG = {k: v for k, v in config.items() if k != "grid_file"}
+CONFIG_HASH = hashlib.sha256(canonical_json({"config": TABLE_CONFIG, "grids": GRIDS}).encode()).hexdigest()[:16]
 
 POINTS = {name: expand_grid(name, grid, config["model"], RESULT_NUMERICS)
           for name, grid in GRIDS["grids"].items()}

@@ -61,7 +61,7 @@ rule regime_table:
             for p in POINTS[wc.grid]
         ],
         config_hash=CONFIG_HASH,
-        config=config,
+        config=TABLE_CONFIG,
     log:
         "logs/regimes/{grid}/regime_table.log",
     conda:
