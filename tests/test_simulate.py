@@ -254,9 +254,10 @@ def test_expo_energy_ledger_and_linear_limit():
     W = r.energy[-1, 0]
     print(f"\nexpo: energy residual / W_in after 20 periods: {r.energy_residual[-1] / W:.1e}")
     assert abs(r.energy_residual[-1]) < 1e-6 * W
-    # friction only dissipates: D never decreases (beyond round-off) and is positive overall;
-    # per period it may be exactly 0 once the beam has shaken down to a stuck state
-    assert np.all(np.diff(r.energy[:, 1]) > -1e-12 * W) and r.energy[-1, 1] > 0
+    # friction only dissipates: D never decreases beyond the ledger's accuracy (the balance
+    # above, 1e-6 W) and is positive overall; per period it may be 0 once the beam has shaken
+    # down to a stuck state (seen in a fresh clone: -1.3e-16 per period at W = 1.3e-7)
+    assert np.all(np.diff(r.energy[:, 1]) > -1e-6 * W) and r.energy[-1, 1] > 0
     # stuck throughout (below the dynamic onset): exact linear response
     pp = prepare_point(f0_rel=0.3, Omega=0.7, **SMALL)
     r = simulate(method="expo", f0_rel=0.3, Omega=0.7, n_transient=0, n_record=2,
