@@ -62,7 +62,7 @@ def _fixed_title(grid_name: str, table: pd.DataFrame, axes: list[str]) -> str:
                 parts.append(f"{k}={v:g}" if isinstance(v, (int, float, np.floating)) else f"{k}={v}")
     import textwrap
 
-    return textwrap.fill(f"grid '{grid_name}': " + ", ".join(parts), width=90)
+    return textwrap.fill(f"grid '{grid_name}': " + ", ".join(parts), width=75)
 
 
 def _edges(values: np.ndarray, log: bool) -> np.ndarray:
@@ -118,7 +118,7 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
         ax.set_xlabel(_axis_label(xa))
         ax.set_ylabel(r"tip radial displacement $w(\beta)/R$ at $t = kT$ (Poincare samples)")
         ax.legend(handles=handles, fontsize=8, title="regime")
-    ax.set_title("Regimes, " + _fixed_title(grid_name, table, axes), fontsize=9)
+    ax.set_title("Regimes\n" + _fixed_title(grid_name, table, axes), fontsize=9)
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
 
@@ -127,6 +127,9 @@ def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: in
     """Largest Lyapunov exponent per forcing period (two-trajectory estimate), map or curve."""
     axes = list(grid["axes"])
     per_period = table["lle_two_trajectory"] * 2.0 * np.pi / table["omega"]
+    if "lle_two_trajectory_verdict" in table.columns:  # blank where no exponent was fitted
+        fitted = table["lle_two_trajectory_verdict"].astype(str).str.startswith("fit over")
+        per_period = per_period.where(fitted)
     if len(axes) == 2:
         xa, ya = axes
         xs, ys = np.sort(table[xa].unique()), np.sort(table[ya].unique())
@@ -139,6 +142,8 @@ def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: in
         mesh = ax.pcolormesh(_edges(xs, _is_log(grid, xa)), _edges(ys, _is_log(grid, ya)), z,
                              cmap="RdBu_r", norm=TwoSlopeNorm(0.0, -lim, lim))
         fig.colorbar(mesh, ax=ax, label=r"$\lambda_1 T$ (per forcing period; > 0: chaos)")
+        ax.text(0.01, -0.13, "blank: no exponent fitted (twin separation saturated within a few periods)",
+                transform=ax.transAxes, fontsize=7)
         for name, setter in ((xa, ax.set_xscale), (ya, ax.set_yscale)):
             if _is_log(grid, name):
                 setter("log")
@@ -147,7 +152,8 @@ def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: in
     else:
         xa = axes[0]
         fig, ax = plt.subplots(figsize=(9, 4), constrained_layout=True)
-        for col, style in (("lle_two_trajectory", "o-"), ("lle_nolds", "s--"), ("lle_stefanski", "^:")):
+        ax.plot(table[xa], per_period, "o-", ms=3, label="two_trajectory (fitted only)")
+        for col, style in (("lle_nolds", "s--"), ("lle_stefanski", "^:")):
             if col in table.columns:
                 ax.plot(table[xa], table[col] * 2 * np.pi / table["omega"], style, ms=3, label=col[4:])
         ax.axhline(0, color="0.5", lw=0.8)
@@ -156,7 +162,7 @@ def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: in
         ax.set_xlabel(_axis_label(xa))
         ax.set_ylabel(r"$\lambda_1 T$ (per forcing period)")
         ax.legend(fontsize=8)
-    ax.set_title(r"Largest Lyapunov exponent, " + _fixed_title(grid_name, table, axes), fontsize=9)
+    ax.set_title("Largest Lyapunov exponent\n" + _fixed_title(grid_name, table, axes), fontsize=9)
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
 
