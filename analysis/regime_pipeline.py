@@ -20,9 +20,6 @@ from analysis.point_store import PointStore
 
 log = logging.getLogger("regimes")
 
-#: Poincare samples are stored as (n_record + 1, n_columns) arrays per point
-POINCARE_KEYS = ("poincare_state", "poincare_tip")
-
 
 def _cached_stage(points: Sequence[dict], store: PointStore, compute: Callable[[list[dict]], list[dict]],
                   batch_size: int, stage: str) -> list[dict]:

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from beamsim.two_layer import check_finite, check_nonnegative, check_positive
+from beamsim.two_layer import check_nonnegative, check_positive
 
 __all__ = ["LAWS", "STICK_SLIP", "FULL_SLIP", "STRIBECK", "Friction", "smooth_traction",
            "law_code"]

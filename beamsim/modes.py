@@ -288,7 +288,7 @@ def ritz_eigenvalues(alpha: float, beta: float, bc: BoundaryCondition, n_element
     umap = [2, 3, 6, 7]
     bw, bu = np.zeros((8, xi.size)), np.zeros((8, xi.size))
     bw[wmap], bu[umap] = n, n
-    bwp, bup, bwpp = z.repeat(2, 0), z.repeat(2, 0), z.repeat(2, 0)
+    bup, bwpp = z.repeat(2, 0), z.repeat(2, 0)
     bup[umap], bwpp[wmap] = d1, d2
     eps = bw + bup  # membrane strain w + u'
     kap = bwpp - bup  # curvature w'' - u'

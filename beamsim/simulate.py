@@ -34,8 +34,8 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from beamsim.friction import FULL_SLIP, STICK_SLIP, STRIBECK, Friction, law_code, smooth_traction
-from beamsim.two_layer import (Geometry, TwoLayerModel, build_model, check_finite, check_int,
+from beamsim.friction import Friction, smooth_traction
+from beamsim.two_layer import (Geometry, TwoLayerModel, build_model, check_int,
                                check_nonnegative, check_positive, pressure_at)
 
 __all__ = ["simulate", "simulate_batch", "SimResult", "BatchResult", "prepare_point",

@@ -61,7 +61,7 @@ class IvpSystem:
         self.nfev = 0
 
     def _state(self, y):
-        n, nq = self.n, self.nq
+        n = self.n
         q, v, z = y[:n], y[n:2 * n], y[2 * n:]
         s = self.S @ q
         sd = self.S @ v
