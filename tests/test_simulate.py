@@ -264,7 +264,9 @@ def test_expo_energy_ledger_and_linear_limit():
                  dense_per_period=20, **SMALL)
     assert not r.slipped and r.n_events == 0
     exact = pp.model.tip[0] @ _stuck_linear_q(pp, r.dense_t, r.f0)
-    assert np.abs(r.dense[:, 0] - exact).max() < 1e-9 * np.abs(exact).max()
+    # expo evaluates the stuck flow through an eigen-decomposition of the 2n x 2n first-order
+    # matrix; its round-off differs with the BLAS in use: measured 2e-10 and 1.4e-9 relative
+    assert np.abs(r.dense[:, 0] - exact).max() < 1e-8 * np.abs(exact).max()
 
 
 def test_newmark_energy_ledger():
