@@ -222,6 +222,33 @@ def _diverged(q, v, lim):
 
 
 @njit(cache=True)
+def _end_of_step(p, k, t, q, v, z, ecum, law, Mm, Km, S, wq, kt, tip, n_per, n_trans, dense_every,
+                 div_limit, pc_state, pc_tip, pc_energy, dense, flags):
+    """Shared bookkeeping after step ``k`` (time ``t``) of every integrator: divergence flag
+    (returns True: stop this point), Poincare record at period ends, dense output."""
+    if _diverged(q, v, div_limit):
+        flags[p, 0] = 1.0
+        flags[p, 1] = t
+        return True
+    if k % n_per == 0:
+        ip = k // n_per - n_trans
+        if ip >= 0:
+            _record(ip, q, v, z, ecum, law, Mm, Km, S, wq, kt, tip, pc_state, pc_tip, pc_energy, p)
+    if dense_every > 0 and k % dense_every == 0:
+        _dense(k // dense_every, q, v, tip, dense, p)
+    return False
+
+
+@njit(cache=True)
+def _final_flags(p, stats, flags):
+    """Slip indicators of a finished point (see SimResult)."""
+    flags[p, 2] = stats[0]
+    flags[p, 3] = stats[1] if stats[0] > 0 else np.nan
+    flags[p, 4] = stats[2] / stats[3] if stats[3] > 0 else np.nan
+    flags[p, 6] = stats[4] / stats[5] if stats[5] > 0 else np.nan
+
+
+@njit(cache=True)
 def _rk4_point(p, law, Aq, Av, Bt, gv, S, wq, kt, Mm, Km, Cm, g, tip, f0, om, tau_s, tau_k,
                fc, fs, vs, kv, eps, damp, h, n_per, n_trans, n_rec, dense_every, div_limit, x0,
                pc_state, pc_tip, pc_energy, dense, flags):
@@ -289,21 +316,10 @@ def _rk4_point(p, law, Aq, Av, Bt, gv, S, wq, kt, Mm, Km, Cm, g, tip, f0, om, ta
         tn = k * h
         inrec = k > n_trans * n_per
         _post_step(tn, q, v, z, mode, law, S, wq, kt, tau_s, tau_k, eps, ecum, stats, inrec)
-        if _diverged(q, v, div_limit):
-            flags[p, 0] = 1.0
-            flags[p, 1] = tn
+        if _end_of_step(p, k, tn, q, v, z, ecum, law, Mm, Km, S, wq, kt, tip, n_per, n_trans,
+                        dense_every, div_limit, pc_state, pc_tip, pc_energy, dense, flags):
             break
-        if k % n_per == 0:
-            ip = k // n_per - n_trans
-            if ip >= 0:
-                _record(ip, q, v, z, ecum, law, Mm, Km, S, wq, kt, tip, pc_state, pc_tip,
-                        pc_energy, p)
-        if dense_every > 0 and k % dense_every == 0:
-            _dense(k // dense_every, q, v, tip, dense, p)
-    flags[p, 2] = stats[0]
-    flags[p, 3] = stats[1] if stats[0] > 0 else np.nan
-    flags[p, 4] = stats[2] / stats[3] if stats[3] > 0 else np.nan
-    flags[p, 6] = stats[4] / stats[5] if stats[5] > 0 else np.nan
+    _final_flags(p, stats, flags)
 
 
 # ---------------------------------------------------------------------------- Newmark
@@ -472,21 +488,10 @@ def _newmark_point(p, S, wq, kt, Mm, Km, Cm, g, tip, f0, om, tau_s, tau_k, damp,
         inrec = k > n_trans * n_per
         _post_step(tn, q, v, z, mode, law, S, wq, kt, tau_s, tau_k, 1.0, ecum, stats, inrec,
                    False)
-        if _diverged(q, v, div_limit):
-            flags[p, 0] = 1.0
-            flags[p, 1] = tn
+        if _end_of_step(p, k, tn, q, v, z, ecum, law, Mm, Km, S, wq, kt, tip, n_per, n_trans,
+                        dense_every, div_limit, pc_state, pc_tip, pc_energy, dense, flags):
             break
-        if k % n_per == 0:
-            ip = k // n_per - n_trans
-            if ip >= 0:
-                _record(ip, q, v, z, ecum, law, Mm, Km, S, wq, kt, tip, pc_state, pc_tip,
-                        pc_energy, p)
-        if dense_every > 0 and k % dense_every == 0:
-            _dense(k // dense_every, q, v, tip, dense, p)
-    flags[p, 2] = stats[0]
-    flags[p, 3] = stats[1] if stats[0] > 0 else np.nan
-    flags[p, 4] = stats[2] / stats[3] if stats[3] > 0 else np.nan
-    flags[p, 6] = stats[4] / stats[5] if stats[5] > 0 else np.nan
+    _final_flags(p, stats, flags)
 
 
 # ---------------------------------------------------------------------------- exponential
@@ -989,21 +994,10 @@ def _expo_point(p, S, wq, kt, Minv, Linv, Mm, Km, Cm, g, tip, f0, om, tau_s, tau
         if damp:
             em_, _ = _energy(q, v, z, law, Mm, Km, S, wq, kt)
             ecum[2] = ecum[0] - ecum[1] - (em_ - e0)
-        if _diverged(q, v, div_limit):
-            flags[p, 0] = 1.0
-            flags[p, 1] = t_end
+        if _end_of_step(p, k_step, t_end, q, v, z, ecum, law, Mm, Km, S, wq, kt, tip, n_per, n_trans,
+                        dense_every, div_limit, pc_state, pc_tip, pc_energy, dense, flags):
             break
-        if k_step % n_per == 0:
-            ip = k_step // n_per - n_trans
-            if ip >= 0:
-                _record(ip, q, v, z, ecum, law, Mm, Km, S, wq, kt, tip, pc_state, pc_tip,
-                        pc_energy, p)
-        if dense_every > 0 and k_step % dense_every == 0:
-            _dense(k_step // dense_every, q, v, tip, dense, p)
-    flags[p, 2] = stats[0]
-    flags[p, 3] = stats[1] if stats[0] > 0 else np.nan
-    flags[p, 4] = stats[2] / stats[3] if stats[3] > 0 else np.nan
-    flags[p, 6] = stats[4] / stats[5] if stats[5] > 0 else np.nan
+    _final_flags(p, stats, flags)
     flags[p, 7] = n_eig
     flags[p, 8] = n_events
     flags[p, 9] = n_checks
