@@ -248,6 +248,16 @@ def _final_flags(p, stats, flags):
     flags[p, 6] = stats[4] / stats[5] if stats[5] > 0 else np.nan
 
 
+@njit(cache=True, inline="always")
+def _stage_state(c, q, v, z, kq, kv, kz, tq, tv, tz):
+    """RK4 stage state ``(tq, tv, tz) = (q, v, z) + c (kq, kv, kz)``."""
+    for i in range(q.shape[0]):
+        tq[i] = q[i] + c * kq[i]
+        tv[i] = v[i] + c * kv[i]
+    for j in range(z.shape[0]):
+        tz[j] = z[j] + c * kz[j]
+
+
 @njit(cache=True)
 def _rk4_point(p, law, Aq, Av, Bt, gv, S, wq, kt, Mm, Km, Cm, g, tip, f0, om, tau_s, tau_k,
                fc, fs, vs, kv, eps, damp, h, n_per, n_trans, n_rec, dense_every, div_limit, x0,
@@ -283,25 +293,13 @@ def _rk4_point(p, law, Aq, Av, Bt, gv, S, wq, kt, Mm, Km, Cm, g, tip, f0, om, ta
         t = step * h
         _deriv(t, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, om, fc, fs, vs, kv,
                eps, damp, k1q, k1v, k1z, k1e, tau)
-        for i in range(n):
-            tq[i] = q[i] + hh * k1q[i]
-            tv[i] = v[i] + hh * k1v[i]
-        for j in range(nq):
-            tz[j] = z[j] + hh * k1z[j]
+        _stage_state(hh, q, v, z, k1q, k1v, k1z, tq, tv, tz)
         _deriv(t + hh, tq, tv, tz, mode, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, om, fc, fs,
                vs, kv, eps, damp, k2q, k2v, k2z, k2e, tau)
-        for i in range(n):
-            tq[i] = q[i] + hh * k2q[i]
-            tv[i] = v[i] + hh * k2v[i]
-        for j in range(nq):
-            tz[j] = z[j] + hh * k2z[j]
+        _stage_state(hh, q, v, z, k2q, k2v, k2z, tq, tv, tz)
         _deriv(t + hh, tq, tv, tz, mode, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, om, fc, fs,
                vs, kv, eps, damp, k3q, k3v, k3z, k3e, tau)
-        for i in range(n):
-            tq[i] = q[i] + h * k3q[i]
-            tv[i] = v[i] + h * k3v[i]
-        for j in range(nq):
-            tz[j] = z[j] + h * k3z[j]
+        _stage_state(h, q, v, z, k3q, k3v, k3z, tq, tv, tz)
         _deriv(t + h, tq, tv, tz, mode, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, om, fc, fs,
                vs, kv, eps, damp, k4q, k4v, k4z, k4e, tau)
         h6 = h / 6.0
