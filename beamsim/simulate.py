@@ -248,6 +248,33 @@ def _final_flags(p, stats, flags):
     flags[p, 6] = stats[4] / stats[5] if stats[5] > 0 else np.nan
 
 
+@njit(cache=True)
+def _start_point(p, x0, law, S, wq, kt, tau_s, tau_k, eps, Mm, Km, tip, n_trans, dense_every,
+                 pc_state, pc_tip, pc_energy, dense, flags):
+    """Initial state of every integrator: ``(q, v, z)`` from ``x0``, a consistent interface
+    state (return mapping at t = 0, not counted as slip or dissipation), the initial energy in
+    ``flags[p, 5]``, and the t = 0 record / dense sample.  Returns q, v, z, mode, ecum, stats, e0."""
+    n = Mm.shape[0]
+    nq = S.shape[0]
+    q = x0[:n].copy()
+    v = x0[n:2 * n].copy()
+    z = x0[2 * n:2 * n + nq].copy()
+    mode = np.zeros(nq, np.int64)
+    ecum = np.zeros(3)
+    stats = np.zeros(6)
+    _post_step(0.0, q, v, z, mode, law, S, wq, kt, tau_s, tau_k, eps, ecum, stats, False)
+    stats[4] = 0.0
+    stats[5] = 0.0
+    ecum[1] = 0.0
+    e0, _ = _energy(q, v, z, law, Mm, Km, S, wq, kt)
+    flags[p, 5] = e0
+    if n_trans == 0:
+        _record(0, q, v, z, ecum, law, Mm, Km, S, wq, kt, tip, pc_state, pc_tip, pc_energy, p)
+    if dense_every > 0:
+        _dense(0, q, v, tip, dense, p)
+    return q, v, z, mode, ecum, stats, e0
+
+
 @njit(cache=True, inline="always")
 def _stage_state(c, q, v, z, kq, kv, kz, tq, tv, tz):
     """RK4 stage state ``(tq, tv, tz) = (q, v, z) + c (kq, kv, kz)``."""
@@ -264,19 +291,9 @@ def _rk4_point(p, law, Aq, Av, Bt, gv, S, wq, kt, Mm, Km, Cm, g, tip, f0, om, ta
                pc_state, pc_tip, pc_energy, dense, flags):
     n = Aq.shape[0]
     nq = S.shape[0]
-    q = x0[:n].copy()
-    v = x0[n:2 * n].copy()
-    z = x0[2 * n:2 * n + nq].copy()
-    mode = np.zeros(nq, np.int64)
-    ecum = np.zeros(3)
-    stats = np.zeros(6)
-    # consistent initial interface state (return mapping at t = 0)
-    _post_step(0.0, q, v, z, mode, law, S, wq, kt, tau_s, tau_k, eps, ecum, stats, False)
-    stats[4] = 0.0
-    stats[5] = 0.0
-    ecum[1] = 0.0
-    e0, _ = _energy(q, v, z, law, Mm, Km, S, wq, kt)
-    flags[p, 5] = e0
+    q, v, z, mode, ecum, stats, e0 = _start_point(p, x0, law, S, wq, kt, tau_s, tau_k, eps, Mm, Km, tip,
+                                                  n_trans, dense_every, pc_state, pc_tip,
+                                                  pc_energy, dense, flags)
     k1q = np.empty(n); k1v = np.empty(n); k1z = np.empty(nq); k1e = np.empty(3)
     k2q = np.empty(n); k2v = np.empty(n); k2z = np.empty(nq); k2e = np.empty(3)
     k3q = np.empty(n); k3v = np.empty(n); k3z = np.empty(nq); k3e = np.empty(3)
@@ -284,10 +301,6 @@ def _rk4_point(p, law, Aq, Av, Bt, gv, S, wq, kt, Mm, Km, Cm, g, tip, f0, om, ta
     tq = np.empty(n); tv = np.empty(n); tz = np.empty(nq)
     tau = np.empty(nq)
     n_total = (n_trans + n_rec) * n_per
-    if n_trans == 0:
-        _record(0, q, v, z, ecum, law, Mm, Km, S, wq, kt, tip, pc_state, pc_tip, pc_energy, p)
-    if dense_every > 0:
-        _dense(0, q, v, tip, dense, p)
     hh = 0.5 * h
     for step in range(n_total):
         t = step * h
@@ -356,18 +369,9 @@ def _newmark_point(p, S, wq, kt, Mm, Km, Cm, g, tip, f0, om, tau_s, tau_k, damp,
     n = Mm.shape[0]
     nq = S.shape[0]
     law = 0
-    q = x0[:n].copy()
-    v = x0[n:2 * n].copy()
-    z = x0[2 * n:2 * n + nq].copy()
-    mode = np.zeros(nq, np.int64)
-    ecum = np.zeros(3)
-    stats = np.zeros(6)
-    _post_step(0.0, q, v, z, mode, law, S, wq, kt, tau_s, tau_k, 1.0, ecum, stats, False)
-    stats[4] = 0.0
-    stats[5] = 0.0
-    ecum[1] = 0.0
-    e0, _ = _energy(q, v, z, law, Mm, Km, S, wq, kt)
-    flags[p, 5] = e0
+    q, v, z, mode, ecum, stats, e0 = _start_point(p, x0, law, S, wq, kt, tau_s, tau_k, 1.0, Mm, Km, tip,
+                                                  n_trans, dense_every, pc_state, pc_tip,
+                                                  pc_energy, dense, flags)
     a0 = 4.0 / (h * h)
     a1 = 2.0 / h
     # base effective matrix without interface: a0 M + a1 C + K
@@ -385,10 +389,6 @@ def _newmark_point(p, S, wq, kt, Mm, Km, Cm, g, tip, f0, om, tau_s, tau_k, damp,
         rhs0 -= Cm @ v
     acc = _chol_solve(Mm, rhs0, n)
     n_total = (n_trans + n_rec) * n_per
-    if n_trans == 0:
-        _record(0, q, v, z, ecum, law, Mm, Km, S, wq, kt, tip, pc_state, pc_tip, pc_energy, p)
-    if dense_every > 0:
-        _dense(0, q, v, tip, dense, p)
     stick = np.empty(nq, np.bool_)   # trial pattern for the new step
     sgn = np.empty(nq)
     Fprev = 0.0
@@ -684,18 +684,9 @@ def _expo_point(p, S, wq, kt, Minv, Linv, Mm, Km, Cm, g, tip, f0, om, tau_s, tau
     nq = S.shape[0]
     n2 = 2 * n
     law = 0
-    q = x0[:n].copy()
-    v = x0[n:n2].copy()
-    z = x0[n2:n2 + nq].copy()
-    mode = np.zeros(nq, np.int64)
-    ecum = np.zeros(3)
-    stats = np.zeros(6)
-    _post_step(0.0, q, v, z, mode, law, S, wq, kt, tau_s, tau_k, 1.0, ecum, stats, False)
-    stats[4] = 0.0
-    stats[5] = 0.0
-    ecum[1] = 0.0
-    e0, _ = _energy(q, v, z, law, Mm, Km, S, wq, kt)
-    flags[p, 5] = e0
+    q, v, z, mode, ecum, stats, e0 = _start_point(p, x0, law, S, wq, kt, tau_s, tau_k, 1.0, Mm, Km, tip,
+                                                  n_trans, dense_every, pc_state, pc_tip,
+                                                  pc_energy, dense, flags)
     free = np.zeros(nq, np.bool_)
     for j in range(nq):
         free[j] = tau_s[j] <= 0.0
@@ -730,10 +721,6 @@ def _expo_point(p, S, wq, kt, Minv, Linv, Mm, Km, Cm, g, tip, f0, om, tau_s, tau
     fprev = np.empty(nq)
     rate = np.empty(nq)
     n_total = (n_trans + n_rec) * n_per
-    if n_trans == 0:
-        _record(0, q, v, z, ecum, law, Mm, Km, S, wq, kt, tip, pc_state, pc_tip, pc_energy, p)
-    if dense_every > 0:
-        _dense(0, q, v, tip, dense, p)
     slot = -1
     need_pattern = True
     t0 = 0.0
