@@ -1,93 +1,191 @@
-r"""Largest Lyapunov exponent of the beam from two trajectories (no renormalisation).
+r"""Largest Lyapunov exponent of the beam: Stefanski synchronisation and Benettin, batched.
 
-Every grid point is integrated twice in the same batch: the reference from rest and a twin
-whose initial generalised coordinates are displaced by ``delta0`` times the frictionless static
-response to the peak load (``2 f0 K0^-1 g``, the natural scale of the response). Both are
-recorded once per forcing period ``T`` from ``t = 0``. The scaled separation
+Both estimators run on the simulator's full state -- generalised coordinates ``q``,
+velocities ``v``, the Jenkins elements' slips ``z`` and their stick/slip states -- with the
+RK4 reference scheme (:mod:`beamsim.coupled_copies`), starting from the state a reference run
+ended in (``SimResult.final_state``, i.e. on the attractor after the transient).  Only
+trajectories are integrated (no Jacobian, no saltation matrices), so both are valid for the
+discontinuous stick/slip dynamics.
 
-.. math::  d_k = \left\| (x_k - \tilde x_k) / \sigma \right\|_2 ,
+* **Stefanski** (:func:`analysis.lyapunov.sync_search`, the same bracket search and windowed,
+  scale-aware synchronisation test as the generic :func:`analysis.lyapunov.stefanski_lle`):
+  responses ``y' = f(t, y) + d (x - y)`` on every continuous state variable; the smallest
+  synchronising ``d`` estimates ``lambda_1``.  ``d = 0`` is tested first, alone: where it
+  synchronises (the usual case for a beam with friction) the value is the measured
+  convergence rate and nothing else is integrated; otherwise a geometric ladder of couplings
+  up to the forcing frequency ``omega`` and multisection rounds follow (``batch`` couplings per
+  round, integrated together).
+* **Benettin**: a free copy (``d = 0``) renormalised to the initial separation ``e0`` at every
+  period end; ``lambda_1`` is the mean log growth per unit time after ``k_align`` periods of
+  alignment with the most unstable direction.
 
-(``x = (q, v)`` at ``t = kT``, ``sigma`` the per-component spread of the reference's
-post-transient Poincare samples, floored at ``1e-3`` of the largest) grows or decays as
-``exp(lambda_1 k T)`` while it is small. ``lambda_1`` is the least-squares slope of
-``log d_k`` against ``t_k = k T`` over the periods where ``d_k`` lies between the round-off
-floor (``1e-11``) and the saturation level (``1e-2``), after ``k_skip`` periods of alignment
-with the most unstable direction. Only trajectories are compared (no Jacobian), so the estimate
-is valid for the discontinuous stick-slip dynamics, like the Stefanski method it cross-checks
-(:mod:`analysis.lyapunov`).
-
-Limits, stated with the result (``verdict``):
-
-* the separation is measured from ``t = 0``, so on a strongly chaotic point it may saturate
-  during the transient; the fit then uses the early growth (transient dynamics, flagged);
-* a separation that stays at the round-off floor gives no slope: ``lambda_1 <= 0`` is all that
-  can be said, reported as the slope of its decay before reaching the floor (or ``0``);
-* a neutral direction (the undamped stuck beam, a torus) gives a slope ``~ 0`` (linear growth
-  of the phase error).
+The error is the RMS over ``(q, v)`` of the difference scaled by the attractor size per
+component (:func:`attractor_scale`: the spread of the reference's Poincare samples or the
+forced-response scale, whichever is larger).  The
+initial separation has RMS ``e0`` in a fixed pseudo-random direction (seeded).  Exponents are in
+the beam's dimensionless time unit; ``lambda_1 T`` (``T = 2 pi / omega``) is the growth per
+forcing period.
 """
 
 from __future__ import annotations
 
+import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
 
-#: scaled separation regarded as round-off / as saturated
-FLOOR = 1e-11
-SATURATION = 1e-2
+from analysis.lyapunov import LLEResult, _exp_clip, _perturbation, _window_rate, sync_search
+
+__all__ = ["BeamLLE", "attractor_scale", "beam_lle", "initial_offset", "response_scale"]
+
+#: RK4 stability limit of the coupling term -d e (see analysis.lyapunov)
+_RK4_REAL_LIMIT = 2.5
+#: ln of the scaled error regarded as exact coincidence / round-off
+_LOG_ROUNDOFF = math.log(1e-11)
 
 
-@dataclass(frozen=True)
-class TwinLLE:
-    value: float  # lambda_1 per unit (dimensionless) time
-    per_period: float  # lambda_1 T
-    window: tuple[int, int]  # periods used by the fit
-    verdict: str
+@dataclass
+class BeamLLE:
+    """Both estimates of one grid point.  ``stefanski`` and ``benettin`` are
+    :class:`analysis.lyapunov.LLEResult` (value per unit dimensionless time); ``period`` is the
+    forcing period ``T``."""
+
+    stefanski: LLEResult
+    benettin: LLEResult
+    period: float
 
 
-def twin_perturbation(prepared, delta0: float = 1e-11) -> np.ndarray:
-    """Initial displacement ``q0`` of the twin: ``delta0`` times the frictionless static
-    response to the peak load ``2 f0`` (zero load: ``delta0`` per coordinate)."""
-    u = 2.0 * prepared.f0 * np.asarray(prepared.model.static_unit_frictionless, dtype=float)
-    if not np.any(u):
-        u = np.ones(prepared.model.n)
-    return delta0 * u
+def attractor_scale(poincare_state: np.ndarray, q_ref: np.ndarray, omega: float) -> np.ndarray:
+    """Per-component size of the attractor, ``(2 n,)`` for ``(q, v)``: the larger of the
+    spread (standard deviation) of the Poincare samples (rows = periods) and the forced
+    response scale -- ``|q_ref|`` for coordinates, ``omega |q_ref|`` for velocities, with
+    ``q_ref`` the frictionless static response to the peak load
+    (:func:`response_scale`) -- each group floored at ``1e-3`` of its largest entry.
+
+    The response scale matters on periodic orbits: their Poincare samples do not spread, and a
+    separation measured against a zero spread would sit at round-off."""
+    x = np.asarray(poincare_state, dtype=float)
+    n = x.shape[1] // 2
+    s = x.std(axis=0)
+    ref = np.abs(np.asarray(q_ref, dtype=float))
+    out = np.empty(2 * n)
+    for sl, r in ((slice(0, n), ref), (slice(n, 2 * n), omega * ref)):
+        g = np.maximum(s[sl], r)
+        out[sl] = np.maximum(g, 1e-3 * max(float(g.max()), 1e-300))
+    return out
 
 
-def separation(ref: np.ndarray, twin: np.ndarray, settled_from: int) -> np.ndarray:
-    """``d_k`` for Poincare records of shape (n_periods + 1, n_components)."""
-    tail = ref[settled_from:]
-    sigma = tail.std(axis=0)
-    sigma = np.maximum(sigma, 1e-3 * max(sigma.max(), np.abs(tail).max(), 1e-300))
-    return np.sqrt((((ref - twin) / sigma) ** 2).sum(axis=1))
+def response_scale(prepared) -> np.ndarray:
+    """Frictionless static response to the peak load ``2 f0`` (``(n,)``, generalised
+    coordinates): the natural size of the forced motion (unit load if ``f0 = 0``)."""
+    u = np.asarray(prepared.model.static_unit_frictionless, dtype=float)
+    return 2.0 * prepared.f0 * u if prepared.f0 > 0 else u
 
 
-def twin_lle(ref: np.ndarray, twin: np.ndarray, period: float, settled_from: int,
-             k_skip: int = 3, min_points: int = 8) -> TwinLLE:
-    """``lambda_1`` from the separation of two Poincare records (see the module docstring)."""
-    d = separation(ref, twin, settled_from)
-    if not np.all(np.isfinite(d)):
-        return TwinLLE(np.nan, np.nan, (0, 0), "non-finite separation")
-    k = np.arange(d.size)
-    sat = np.nonzero(d >= SATURATION)[0]
-    k_end = int(sat[0]) if sat.size else d.size
-    usable = (k >= k_skip) & (k < k_end) & (d > FLOOR)
-    idx = np.nonzero(usable)[0]
-    if idx.size >= min_points:
-        # contiguous run from the first usable period (a separation that dips to the floor
-        # and re-emerges is noise, not growth)
-        gaps = np.nonzero(np.diff(idx) > 1)[0]
-        run = idx[: gaps[0] + 1] if gaps.size else idx
-        if run.size >= min_points:
-            slope = np.polyfit(k[run] * period, np.log(d[run]), 1)[0]
-            where = "transient" if run[0] < settled_from else "attractor"
-            kind = ("saturated at period %d" % k_end) if sat.size else "unsaturated"
-            return TwinLLE(float(slope), float(slope * period), (int(run[0]), int(run[-1])),
-                           f"fit over periods {run[0]}-{run[-1]} ({where}, {kind})")
-    if sat.size and k_end < k_skip + min_points:
-        # saturates almost at once: very strong divergence, resolved only coarsely
-        kk = np.arange(1, max(k_end, 2))
-        slope = np.log(SATURATION / max(d[0], FLOOR)) / (kk[-1] * period)
-        return TwinLLE(float(slope), float(slope * period), (0, int(k_end)),
-                       "saturated within %d periods: lower bound from the growth to saturation" % k_end)
-    return TwinLLE(0.0, 0.0, (0, 0), "separation at the round-off floor: lambda_1 <= 0 (not resolved)")
+def initial_offset(prepared, scale: np.ndarray, e0: float, seed: int = 0, n_slow: int = 4) -> np.ndarray:
+    """Offset ``y - x`` on ``(q, v, z)`` with scaled RMS ``e0`` in a fixed pseudo-random
+    direction within the ``n_slow`` slowest modes of the stuck structure (coordinates and
+    velocities), so that the perturbation does not start in the stiff interface (penalty)
+    modes, whose transient would dominate the first periods; the Jenkins slips ``z`` are not
+    perturbed."""
+    model = prepared.model
+    n, nq = model.n, model.n_quad
+    lam, phi = model.eig_stuck
+    k = max(1, min(int(n_slow), n))
+    u = _perturbation(2 * k, seed)
+    om = np.sqrt(np.maximum(lam[:k], 0.0))
+    dq = phi[:, :k] @ u[:k]
+    dv = phi[:, :k] @ (om * u[k:])
+    x = np.concatenate([dq, dv])
+    rms = math.sqrt(np.mean((x / scale) ** 2))
+    off = np.zeros(2 * n + nq)
+    off[:2 * n] = x * (e0 / rms)
+    return off
+
+
+def _benettin(log_err: np.ndarray, t: np.ndarray, k_align: int) -> LLEResult:
+    ok = np.isfinite(log_err)
+    if not ok.all():
+        return LLEResult(value=float("nan"), method="benettin",
+                         verdict="copy or drive diverged", chaotic=False)
+    k0 = min(k_align, log_err.size - 2)
+    value = float((log_err[-1] - log_err[k0]) / (t[-1] - t[k0]))
+    return LLEResult(value=value, method="benettin", chaotic=value > 0,
+                     verdict=f"mean log growth per unit time over periods {k0}-{log_err.size - 1} "
+                             "(renormalised every period)",
+                     sync_error=_exp_clip(log_err[None, :]), sync_time=t)
+
+
+def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_periods: int = 50,
+             e0: float = 1e-6, batch: int = 8, rtol: float = 0.05, max_rounds: int = 6,
+             window: float = 0.25, k_align: int = 5, seed: int = 0,
+             band: tuple[float, float] = (1e-2, 1e2),
+             steps_per_period: int | None = None, step_factor: float = 0.5,
+             n_threads: int | None = None) -> list[BeamLLE]:
+    """Stefanski and Benettin estimates of ``lambda_1`` for each point.
+
+    prepared : points from :func:`beamsim.simulate.prepare_point` (same ``n``, ``n_quad``).
+    x_start : ``(P, 2 n + 2 n_quad)`` restart states (``SimResult.final_state``).
+    scales : ``(P, 2 n)`` attractor sizes (:func:`attractor_scale`).
+    n_periods : length of every synchronisation test and of the Benettin run, in forcing
+        periods.  ``|lambda_1| T`` below about ``5 / n_periods`` is reported as zero.
+    batch, rtol, max_rounds, window : the bracket search (see
+        :func:`analysis.lyapunov.stefanski_lle`).
+    e0, band : initial scaled separation and the band ``[e0 band[0], e0 band[1]]`` outside which
+        a copy is moved back to ``e0`` (narrower than the generic estimator's: a stick/slip
+        switch that one copy makes and the other does not is a nonlinear event, so the
+        separation must stay far below the attractor size).
+    """
+    from beamsim.coupled_copies import run_copies
+    from beamsim.simulate import period_steps
+
+    P = len(prepared)
+    x_start = np.asarray(x_start, dtype=float)
+    scales = np.asarray(scales, dtype=float)
+    n, nq = prepared[0].model.n, prepared[0].model.n_quad
+    inv = 1.0 / scales
+    offs = [initial_offset(prepared[i], scales[i], e0, seed) for i in range(P)]
+    periods = [2 * math.pi / pp.omega for pp in prepared]
+    t_all = [np.arange(n_periods + 1) * T for T in periods]
+    run_kw = dict(n_periods=n_periods, e0=e0, band=band, steps_per_period=steps_per_period,
+                  step_factor=step_factor, n_threads=n_threads)
+
+    # round 0 for every point at once: d = 0 (bounded, Stefanski) and the Benettin copy
+    t_run = time.perf_counter()
+    off0 = np.stack([np.stack([o, o]) for o in offs])
+    le0 = run_copies(prepared, x_start, off0, np.zeros((P, 2)), inv,
+                     renorm_period=np.tile([False, True], (P, 1)), **run_kw)
+    t_round0 = time.perf_counter() - t_run
+
+    out = []
+    for i, pp in enumerate(prepared):
+        T, t = periods[i], t_all[i]
+        t_s = t[1:]
+        h = T / period_steps(pp, "rk4", steps_per_period, step_factor)
+        n_runs = [0]
+
+        def test(log_err: np.ndarray):
+            log_err = np.where(np.isnan(log_err) | (log_err == np.inf), np.inf, log_err)
+            rate, first, last = _window_rate(log_err, t_s, window)
+            rate = np.where(np.isfinite(rate), rate, np.inf)
+            return rate, log_err, (rate < 0.0) | (last <= _LOG_ROUNDOFF)
+
+        def run_batch(ds: np.ndarray, i=i, pp=pp):
+            ds = np.asarray(ds, dtype=float)
+            if n_runs[0] == 0 and ds.size == 1 and ds[0] == 0.0:
+                n_runs[0] += 1
+                return test(le0[i, :1, 1:])
+            n_runs[0] += 1
+            le = run_copies([pp], x_start[i:i + 1], np.repeat(offs[i][None, None, :], ds.size, axis=1),
+                            ds[None, :], inv[i:i + 1], **run_kw)
+            return test(le[0, :, 1:])
+
+        t_pt = time.perf_counter()
+        st = sync_search(run_batch, t_s=t_s, batch=batch, rtol=rtol, atol=1e-3 / T,
+                         omega_c=pp.omega, d_cap=_RK4_REAL_LIMIT / h, zero_tol=5.0 / (n_periods * T),
+                         e0=e0, bounded=True, max_rounds=max_rounds, zero_first=True)
+        st.runtime = time.perf_counter() - t_pt + t_round0 / P
+        st.extras["n_batches"] = n_runs[0]
+        out.append(BeamLLE(stefanski=st, benettin=_benettin(le0[i, 1], t, k_align), period=T))
+    return out

@@ -66,6 +66,7 @@ from numba.core.registry import CPUDispatcher
 __all__ = [
     "LLEResult",
     "stefanski_lle",
+    "sync_search",
     "benettin_lle",
     "nolds_lle",
     "sample_trajectory",
@@ -575,14 +576,46 @@ def stefanski_lle(rhs: Callable, x0: Any, params: Any, *, dt: float, t_transient
         synced |= last <= math.log(_ROUNDOFF_FLOOR)
         return rate, log_err, synced
 
+    res = sync_search(run_batch, t_s=t_s, batch=batch, rtol=rtol, atol=atol, omega_c=omega_c,
+                      d_cap=d_cap, zero_tol=zero_tol, e0=e0, bounded=bounded,
+                      max_rounds=max_rounds)
+    res.scale = scale
+    res.runtime = time.perf_counter() - t_start
+    res.n_rhs_evals = n_evals
+    return res
+
+
+def sync_search(run_batch: Callable, *, t_s: np.ndarray, batch: int, rtol: float, atol: float,
+                omega_c: float, d_cap: float, zero_tol: float, e0: float, bounded: bool,
+                max_rounds: int, zero_first: bool = False) -> LLEResult:
+    """Bracket search for the synchronising coupling d_s (steps 4-5 of :func:`stefanski_lle`),
+    shared by the generic estimator and the beam's (:mod:`analysis.beam_lyapunov`).
+
+    ``run_batch(ds) -> (rate, log_err, synced)`` integrates one response per coupling in
+    ``ds`` from the same drive state and perturbation and returns the windowed error rates,
+    the log-error histories (rows, sampled at ``t_s``) and the synchronisation decisions.
+    ``zero_first``: test ``d = 0`` alone first (most beam points are not chaotic, and then
+    nothing else is needed), the ladder only if it does not synchronise.  ``scale``,
+    ``runtime`` and ``n_rhs_evals`` of the result are left for the caller to fill.
+    """
+    t_start = time.perf_counter()
+    scale = None
+    n_evals = 0
     rounds: list[dict[str, Any]] = []
     # ---- round 1: d = 0 and a geometric ladder up to omega_c --------------
     top = min(omega_c, d_cap)
     ladder = top * 2.0 ** np.arange(-(batch - 2), 1, dtype=float)
-    ds = np.concatenate(([0.0], ladder))
+    ds = np.array([0.0]) if zero_first else np.concatenate(([0.0], ladder))
     rate, log_err, synced = run_batch(ds)
     rounds.append({"d": ds.copy(), "rate": rate.copy(), "synced": synced.copy()})
     zero_log_err = log_err[0].copy()
+    if zero_first and not synced[0]:
+        rate2, log_err2, synced2 = run_batch(ladder)
+        rounds.append({"d": ladder.copy(), "rate": rate2.copy(), "synced": synced2.copy()})
+        ds = np.concatenate(([0.0], ladder))
+        rate = np.concatenate((rate, rate2))
+        log_err = np.vstack((log_err, log_err2))
+        synced = np.concatenate((synced, synced2))
     last_ds, last_log_err = ds, log_err
 
     if synced[0]:
@@ -692,6 +725,7 @@ def stefanski_lle(rhs: Callable, x0: Any, params: Any, *, dt: float, t_transient
         extras={"omega_c": omega_c, "converged": bool(converged), "non_monotone": n_viol,
                 "d_s_midpoint": 0.5 * (d_lo + d_hi), "zero_tol": zero_tol,
                 "log_sync_error": rows_log, "bounded": bounded})
+
 
 
 # --------------------------------------------------------------------------

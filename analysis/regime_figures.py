@@ -124,12 +124,9 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
 
 
 def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: int = 130) -> None:
-    """Largest Lyapunov exponent per forcing period (two-trajectory estimate), map or curve."""
+    """Largest Lyapunov exponent per forcing period (Stefanski estimate), map or curve."""
     axes = list(grid["axes"])
-    per_period = table["lle_two_trajectory"] * 2.0 * np.pi / table["omega"]
-    if "lle_two_trajectory_verdict" in table.columns:  # blank where no exponent was fitted
-        fitted = table["lle_two_trajectory_verdict"].astype(str).str.startswith("fit over")
-        per_period = per_period.where(fitted)
+    per_period = table["lle_stefanski"] * 2.0 * np.pi / table["omega"]
     if len(axes) == 2:
         xa, ya = axes
         xs, ys = np.sort(table[xa].unique()), np.sort(table[ya].unique())
@@ -142,8 +139,8 @@ def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: in
         mesh = ax.pcolormesh(_edges(xs, _is_log(grid, xa)), _edges(ys, _is_log(grid, ya)), z,
                              cmap="RdBu_r", norm=TwoSlopeNorm(0.0, -lim, lim))
         fig.colorbar(mesh, ax=ax, label=r"$\lambda_1 T$ (per forcing period; > 0: chaos)")
-        ax.text(0.01, -0.13, "blank: no exponent fitted (twin separation saturated within a few periods)",
-                transform=ax.transAxes, fontsize=7)
+        ax.text(0.01, -0.13, "Stefanski synchronisation estimate; blank: not determined (diverged "
+                "or no synchronisation up to the RK4 limit)", transform=ax.transAxes, fontsize=7)
         for name, setter in ((xa, ax.set_xscale), (ya, ax.set_yscale)):
             if _is_log(grid, name):
                 setter("log")
@@ -152,8 +149,8 @@ def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: in
     else:
         xa = axes[0]
         fig, ax = plt.subplots(figsize=(9, 4), constrained_layout=True)
-        ax.plot(table[xa], per_period, "o-", ms=3, label="two_trajectory (fitted only)")
-        for col, style in (("lle_nolds", "s--"), ("lle_stefanski", "^:")):
+        ax.plot(table[xa], per_period, "o-", ms=3, label="Stefanski")
+        for col, style in (("lle_benettin", "^:"), ("lle_nolds", "s--")):
             if col in table.columns:
                 ax.plot(table[xa], table[col] * 2 * np.pi / table["omega"], style, ms=3, label=col[4:])
         ax.axhline(0, color="0.5", lw=0.8)

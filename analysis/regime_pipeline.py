@@ -39,35 +39,37 @@ def _cached_stage(points: Sequence[dict], store: PointStore, compute: Callable[[
 
 # ----------------------------------------------------------------------------- simulate
 def integrator(method: str, params: dict) -> str:
-    """``auto``: the exact piecewise-linear ``expo`` integrator where it applies (stick-slip),
-    the RK4 reference otherwise."""
+    """``auto``: the RK4 reference for every friction law.  (The exact piecewise-linear
+    ``expo`` integrator stays available for stick-slip, but its event location leaves a
+    relative state error of about 1e-6 per period (docs/model.md), which the Lyapunov
+    estimates would measure.)"""
     if method != "auto":
         return method
-    return "expo" if params.get("law", "stick-slip") == "stick-slip" else "rk4"
+    return "rk4"
 
 
 def _simulate_group(points: list[dict], numerics: dict, threads: int) -> list[dict]:
-    """Reference and twin trajectories of each point in one batch, recorded from t = 0."""
-    from analysis.beam_lyapunov import twin_perturbation
-    from beamsim.simulate import prepare_point, simulate_batch
+    """Reference trajectory of each point in one batch: ``n_transient`` periods discarded,
+    ``n_record`` recorded, and the final state (restart point of the Lyapunov stage)."""
+    from beamsim.simulate import simulate_batch
 
     n_trans, n_rec = numerics["n_transient"], numerics["n_record"]
-    twins = [p["params"] | {"q0": twin_perturbation(prepare_point(**p["params"]))} for p in points]
-    res = simulate_batch([p["params"] for p in points] + twins, n_transient=0, n_record=n_trans + n_rec,
+    res = simulate_batch([p["params"] for p in points], n_transient=n_trans, n_record=n_rec,
                          method=integrator(numerics["method"], points[0]["params"]),
-                         steps_per_period=numerics.get("steps_per_period"), n_threads=threads)
+                         steps_per_period=numerics.get("steps_per_period"),
+                         step_factor=numerics.get("step_factor", 0.5), n_threads=threads)
     out = []
-    for r, tw in zip(res.results[: len(points)], res.results[len(points):]):
-        energy = r.energy[n_trans:]
+    for r in res.results:
+        energy = r.energy
         w_in = float(energy[-1, 0] - energy[0, 0])
-        residual = r.energy_residual[-1] - r.energy_residual[n_trans]
+        residual = r.energy_residual[-1] - r.energy_residual[0]
         diss = np.diff(energy[:, 1])
         out.append({
-            "poincare_state": r.poincare_state[n_trans:], "poincare_tip": r.poincare_tip[n_trans:],
-            "poincare_state_all": r.poincare_state, "twin_state_all": tw.poincare_state,
+            "poincare_state": r.poincare_state, "poincare_tip": r.poincare_tip,
+            "final_state": r.final_state,
             "f0": r.f0, "f_cr": r.f_cr, "omega": r.omega, "Omega": r.Omega, "lam_f": r.lam_f,
             "steps_per_period": r.steps_per_period, "method": r.method,
-            "diverged": bool(r.diverged or tw.diverged), "t_diverged": r.t_diverged,
+            "diverged": bool(r.diverged), "t_diverged": r.t_diverged,
             "slipped": r.slipped, "t_first_slip": r.t_first_slip,
             "stick_fraction": r.stick_fraction,
             "diss_per_cycle": float(np.mean(diss)) if np.isfinite(diss).all() else np.nan,
@@ -112,49 +114,97 @@ def poincare_array(value) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------- lyapunov
-def lyapunov_points(points: Sequence[dict], simulated: pd.DataFrame, numerics: dict) -> pd.DataFrame:
-    """Stage 2: ``lambda_1`` (per unit time) of every point.
-
-    * ``lle_two_trajectory``: separation of the twin trajectories integrated by stage 1
-      (:func:`analysis.beam_lyapunov.twin_lle`);
-    * ``lle_nolds``: Rosenstein's estimate (``nolds.lyap_r``) on the stroboscopic series of the
-      tip radial displacement (NaN when the record is too short for the embedding);
-    * ``lle_stefanski``: not computed for the beam yet (NaN; see docs/pipeline.md).
-    """
-    from analysis.beam_lyapunov import twin_lle
+def _lyapunov_group(points: list[dict], sim: pd.DataFrame, numerics: dict, threads: int) -> list[dict]:
+    """Stefanski and Benettin estimates (analysis.beam_lyapunov) and nolds for one batch."""
+    from analysis.beam_lyapunov import attractor_scale, beam_lle, response_scale
     from analysis.lyapunov import nolds_lle
+    from beamsim.simulate import prepare_point
 
-    sim = simulated.set_index("point_id")
-    emb_dim = int(numerics.get("lyapunov", {}).get("nolds_emb_dim", 6))
-    rows = []
+    lopt = numerics.get("lyapunov", {})
+    emb_dim = int(lopt.get("nolds_emb_dim", 6))
+    recs: list = [None] * len(points)
+    good = []
     for i, p in enumerate(points):
         r = sim.loc[p["point_id"]]
-        period = 2.0 * np.pi / r["omega"]
-        est = twin_lle(poincare_array(r["poincare_state_all"]), poincare_array(r["twin_state_all"]),
-                       period, settled_from=numerics["n_transient"])
-        series = poincare_array(r["poincare_tip"])[:, 0]
-        try:
-            lle_nolds = float(nolds_lle(series, sample_dt=period, emb_dim=emb_dim).value)
-        except Exception as exc:  # nolds rejects short or constant series
-            log.info("nolds: point %s: %s", p["point_id"], exc)
-            lle_nolds = np.nan
-        rows.append({"point_id": p["point_id"], "lle_two_trajectory": est.value,
-                     "lle_two_trajectory_verdict": est.verdict, "lle_nolds": lle_nolds,
-                     "lle_stefanski": np.nan})
-        if (i + 1) % 25 == 0 or i + 1 == len(points):
-            log.info("lyapunov: %d / %d points done", i + 1, len(points))
-    return pd.DataFrame(rows)
+        x = poincare_array(r["poincare_state"])
+        fs = np.asarray(r["final_state"], dtype=float)
+        if r["diverged"] or not (np.all(np.isfinite(x)) and np.all(np.isfinite(fs))):
+            recs[i] = {"lle_stefanski": np.nan, "lle_stefanski_verdict": "not computed: diverged",
+                       "lle_stefanski_lo": np.nan, "lle_stefanski_hi": np.nan,
+                       "lle_benettin": np.nan, "lle_nolds": np.nan}
+        else:
+            good.append(i)
+    if good:
+        prepared = [prepare_point(**points[i]["params"]) for i in good]
+        starts = np.stack([np.asarray(sim.loc[points[i]["point_id"], "final_state"], dtype=float) for i in good])
+        scales = np.stack([attractor_scale(poincare_array(sim.loc[points[i]["point_id"], "poincare_state"]),
+                                           response_scale(pp), pp.omega) for i, pp in zip(good, prepared)])
+        rk4_steps = numerics.get("steps_per_period") if integrator(numerics["method"], {}) == "rk4" else None
+        res = beam_lle(prepared, starts, scales, n_periods=int(lopt.get("n_periods", 50)),
+                       steps_per_period=rk4_steps,
+                       step_factor=numerics.get("step_factor", 0.5), n_threads=threads)
+        for i, est in zip(good, res):
+            r = sim.loc[points[i]["point_id"]]
+            period = 2.0 * np.pi / r["omega"]
+            try:
+                lle_nolds = float(nolds_lle(poincare_array(r["poincare_tip"])[:, 0], sample_dt=period,
+                                            emb_dim=emb_dim).value)
+            except Exception as exc:  # nolds rejects short or constant series
+                log.info("nolds: point %s: %s", points[i]["point_id"], exc)
+                lle_nolds = np.nan
+            st = est.stefanski
+            recs[i] = {"lle_stefanski": st.value, "lle_stefanski_verdict": st.verdict,
+                       "lle_stefanski_lo": st.bracket[0], "lle_stefanski_hi": st.bracket[1],
+                       "lle_benettin": est.benettin.value, "lle_nolds": lle_nolds}
+    return recs
+
+
+def lyapunov_points(points: Sequence[dict], simulated: pd.DataFrame, numerics: dict,
+                    store_root: str, threads: int = 1) -> pd.DataFrame:
+    """Stage 2: ``lambda_1`` (per unit dimensionless time) of every point, on its attractor
+    (restarted from the reference run's final state):
+
+    * ``lle_stefanski``: synchronisation method on the beam's full state
+      (:func:`analysis.beam_lyapunov.beam_lle`), with its verdict and bracket on ``d_s``;
+    * ``lle_benettin``: two trajectories, renormalised every period (same integrator);
+    * ``lle_nolds``: Rosenstein's estimate (``nolds.lyap_r``) on the stroboscopic series of the
+      tip radial displacement (NaN when the record is too short for the embedding).
+    """
+    store = PointStore(store_root, "lyapunov")
+    sim = simulated.set_index("point_id")
+
+    def compute(batch: list[dict]) -> list[dict]:
+        groups: dict = {}
+        for i, p in enumerate(batch):
+            groups.setdefault((p["params"].get("n_modes"), p["params"].get("n_quad")), []).append(i)
+        recs: list = [None] * len(batch)
+        for idx in groups.values():
+            for i, rec in zip(idx, _lyapunov_group([batch[i] for i in idx], sim, numerics, threads)):
+                recs[i] = rec
+        return recs
+
+    recs = _cached_stage(points, store, compute, batch_size=max(2 * threads, 8), stage="lyapunov")
+    return _table(points, recs)
 
 
 # ----------------------------------------------------------------------------- classify
-def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame) -> pd.DataFrame:
+def lle_resolution(numerics: dict) -> float:
+    """Smallest ``lambda_1 T`` the Lyapunov stage resolves: ``5 / n_periods`` (the windowed
+    log-error is resolved to O(1) over the measuring time; a neutral direction -- torus,
+    undamped stuck modes -- shows slow secular growth below this)."""
+    return 5.0 / int(numerics.get("lyapunov", {}).get("n_periods", 50))
+
+
+def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame,
+                    lle_threshold: float = 0.1) -> pd.DataFrame:
     """Stage 3: a label per point from its Poincare samples and its largest Lyapunov exponent.
 
     Non-results first: ``diverged`` (the integrator flagged the point), ``unsettled``
     (:func:`analysis.regimes.is_settled` says the transient is not over); otherwise
     :func:`analysis.regimes.classify` on the stroboscopic samples of all generalised
-    coordinates and velocities, with ``lambda_1`` (two-trajectory estimate) per forcing period
-    when that estimate is a proper fit (else the other indicators decide alone).
+    coordinates and velocities, with ``lambda_1`` per forcing period from the Stefanski estimate
+    (when it reached a value; else the other indicators decide alone); ``lambda_1 T`` above
+    ``lle_threshold`` (:func:`lle_resolution`) counts as positive.
     """
     from analysis.regimes import DIVERGED, UNSETTLED, classify, is_settled
 
@@ -163,11 +213,7 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame) -> pd.DataF
     for _, sim in simulated.iterrows():
         pid = sim["point_id"]
         period_t = 2.0 * np.pi / sim["omega"]
-        lam = lle.loc[pid, "lle_two_trajectory"] if pid in lle.index else np.nan
-        # only a proper fit is evidence; a separation that saturates within a few periods
-        # (a stick/slip outcome flipped by the perturbation) is not an exponent
-        if pid not in lle.index or not str(lle.loc[pid, "lle_two_trajectory_verdict"]).startswith("fit over"):
-            lam = np.nan
+        lam = float(lle.loc[pid, "lle_stefanski"]) if pid in lle.index else np.nan
         row = {"point_id": pid, "label": None, "period": None, "reason": "", "K": np.nan,
                "spectral_growth": np.nan, "n_clusters": np.nan, "settled": False}
         x = poincare_array(sim["poincare_state"])
@@ -177,7 +223,8 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame) -> pd.DataF
             row.update(label=UNSETTLED, reason="transient not over: first and second half of the "
                        "Poincare record differ (is_settled)")
         else:
-            res = classify(x, lle_per_period=(lam * period_t) if np.isfinite(lam) else None)
+            res = classify(x, lle_per_period=(lam * period_t) if np.isfinite(lam) else None,
+                           lle_threshold=lle_threshold)
             ind = dict(res.indicators)
             row.update(label=res.label, period=res.period, reason=res.reason, settled=True,
                        K=ind.get("K", np.nan), spectral_growth=ind.get("spectral_growth", np.nan),
@@ -191,10 +238,10 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame) -> pd.DataF
 # ----------------------------------------------------------------------------- regime table
 #: columns of the regime table besides the model parameters (docs/pipeline.md)
 TABLE_COLUMNS = (
-    "point_id", "label", "period", "lle_two_trajectory", "lle_stefanski", "lle_nolds", "K",
-    "spectral_growth", "n_clusters", "slipped", "t_first_slip", "stick_fraction",
-    "diss_per_cycle", "f0", "f_cr", "omega", "Omega", "lam_f", "diverged", "settled",
-    "energy_residual_rel", "lle_two_trajectory_verdict", "reason",
+    "point_id", "label", "period", "lle_stefanski", "lle_benettin", "lle_nolds",
+    "lle_stefanski_lo", "lle_stefanski_hi", "K", "spectral_growth", "n_clusters", "slipped",
+    "t_first_slip", "stick_fraction", "diss_per_cycle", "f0", "f_cr", "omega", "Omega", "lam_f",
+    "diverged", "settled", "energy_residual_rel", "lle_stefanski_verdict", "reason",
 )
 
 
@@ -282,6 +329,7 @@ def portrait_case(row: pd.Series, axes: list[str], numerics: dict, samples_per_p
         spp = max(samples_per_period, int(np.ceil(spp / samples_per_period) * samples_per_period))
     r = simulate(n_transient=numerics["n_transient"], n_record=numerics["n_record"],
                  method=integrator(numerics["method"], params), steps_per_period=spp,
+                 step_factor=numerics.get("step_factor", 0.5),
                  dense_per_period=samples_per_period, **params)
     t, w = r.dense_t, r.dense[:, 0]
     w_dot = np.gradient(w, t)

@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, fields
+from types import SimpleNamespace
 
 import numba
 import numpy as np
@@ -38,7 +39,7 @@ from beamsim.friction import Friction, smooth_traction
 from beamsim.two_layer import (Geometry, TwoLayerModel, build_model, check_int,
                                check_nonnegative, check_positive, pressure_at)
 
-__all__ = ["simulate", "simulate_batch", "SimResult", "BatchResult", "prepare_point",
+__all__ = ["simulate", "simulate_batch", "SimResult", "BatchResult", "prepare_point", "restart_params",
            "ENERGY_COLUMNS", "TIP_COLUMNS"]
 
 TIP_COLUMNS = ("w_tip", "u1_tip", "u2_tip", "load_point")
@@ -240,8 +241,17 @@ def _end_of_step(p, k, t, q, v, z, ecum, law, Mm, Km, S, wq, kt, tip, n_per, n_t
 
 
 @njit(cache=True)
-def _final_flags(p, stats, flags):
-    """Slip indicators of a finished point (see SimResult)."""
+def _final_flags(p, stats, flags, q, v, z, mode, final):
+    """Slip indicators of a finished point (see SimResult) and its final state
+    ``(q, v, z, mode)`` (restart point of :mod:`beamsim.coupled_copies`)."""
+    n = q.shape[0]
+    nq = z.shape[0]
+    for i in range(n):
+        final[p, i] = q[i]
+        final[p, n + i] = v[i]
+    for j in range(nq):
+        final[p, 2 * n + j] = z[j]
+        final[p, 2 * n + nq + j] = mode[j]
     flags[p, 2] = stats[0]
     flags[p, 3] = stats[1] if stats[0] > 0 else np.nan
     flags[p, 4] = stats[2] / stats[3] if stats[3] > 0 else np.nan
@@ -251,7 +261,7 @@ def _final_flags(p, stats, flags):
 @njit(cache=True)
 def _start_point(p, x0, law, S, wq, kt, tau_s, tau_k, eps, Mm, Km, tip, n_trans, dense_every,
                  pc_state, pc_tip, pc_energy, dense, flags):
-    """Initial state of every integrator: ``(q, v, z)`` from ``x0``, a consistent interface
+    """Initial state of every integrator: ``(q, v, z, mode)`` from ``x0``, a consistent interface
     state (return mapping at t = 0, not counted as slip or dissipation), the initial energy in
     ``flags[p, 5]``, and the t = 0 record / dense sample.  Returns q, v, z, mode, ecum, stats, e0."""
     n = Mm.shape[0]
@@ -260,6 +270,9 @@ def _start_point(p, x0, law, S, wq, kt, tau_s, tau_k, eps, Mm, Km, tip, n_trans,
     v = x0[n:2 * n].copy()
     z = x0[2 * n:2 * n + nq].copy()
     mode = np.zeros(nq, np.int64)
+    if x0.shape[0] >= 2 * n + 2 * nq:
+        for j in range(nq):
+            mode[j] = int(x0[2 * n + nq + j])
     ecum = np.zeros(3)
     stats = np.zeros(6)
     _post_step(0.0, q, v, z, mode, law, S, wq, kt, tau_s, tau_k, eps, ecum, stats, False)
@@ -286,43 +299,206 @@ def _stage_state(c, q, v, z, kq, kv, kz, tq, tv, tz):
 
 
 @njit(cache=True)
+def _rk4_incr(t, hs, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, om, fc, fs, vs,
+              kv, eps, damp, kq, kvv, kz, ke, tau, qn, vn, zn, en, sq, sv, sz, dcoup, xq, xv, xz):
+    """One classical RK4 step of length ``hs`` from ``(q, v, z)`` with the stick/slip state
+    ``mode`` frozen: the new state goes to ``(qn, vn, zn)``, the energy-ledger increment to ``en``
+    (the inputs are not modified).  The stage states are left in ``sq[st], sv[st], sz[st]``.
+    A coupled copy (``dcoup > 0``) gets ``dcoup (x - y)`` added to every stage derivative, with
+    the drive's stage states ``xq[st], xv[st], xz[st]`` (:mod:`beamsim.coupled_copies`)."""
+    n = q.shape[0]
+    nq = z.shape[0]
+    hh = 0.5 * hs
+    for st in range(4):
+        if st == 0:
+            _stage_state(0.0, q, v, z, q, v, z, sq[0], sv[0], sz[0])
+            c = 0.0
+        else:
+            c = hs if st == 3 else hh
+            _stage_state(c, q, v, z, kq[st - 1], kvv[st - 1], kz[st - 1], sq[st], sv[st], sz[st])
+        _deriv(t + c, sq[st], sv[st], sz[st], mode, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0,
+               om, fc, fs, vs, kv, eps, damp, kq[st], kvv[st], kz[st], ke[st], tau)
+        if dcoup != 0.0:
+            for i in range(n):
+                kq[st, i] += dcoup * (xq[st, i] - sq[st, i])
+                kvv[st, i] += dcoup * (xv[st, i] - sv[st, i])
+            for j in range(nq):
+                kz[st, j] += dcoup * (xz[st, j] - sz[st, j])
+    h6 = hs / 6.0
+    for i in range(n):
+        qn[i] = q[i] + h6 * (kq[0, i] + 2.0 * kq[1, i] + 2.0 * kq[2, i] + kq[3, i])
+        vn[i] = v[i] + h6 * (kvv[0, i] + 2.0 * kvv[1, i] + 2.0 * kvv[2, i] + kvv[3, i])
+    for j in range(nq):
+        zn[j] = z[j] + h6 * (kz[0, j] + 2.0 * kz[1, j] + 2.0 * kz[2, j] + kz[3, j])
+    for r in range(3):
+        en[r] = h6 * (ke[0, r] + 2.0 * ke[1, r] + 2.0 * ke[2, r] + ke[3, r])
+
+
+@njit(cache=True)
+def _first_event(q, v, z, mode, qn, vn, zn, S, kt, tau_s):
+    """Earliest stick/slip switch of the Jenkins elements inside a step from ``(q, v, z)`` to
+    ``(qn, vn, zn)``: the event functions ``g = |k_t (s - z)| - tau_s`` (stuck) and
+    ``g = -mode s'`` (slipping) are interpolated linearly between the step ends.  Returns
+    ``(theta, j)``, the step fraction and the element, or ``(2.0, -1)`` if none switches."""
+    n = q.shape[0]
+    nq = z.shape[0]
+    best = 2.0
+    jb = -1
+    for j in range(nq):
+        if tau_s[j] <= 0.0:
+            continue
+        if mode[j] == 0:
+            s0 = 0.0
+            s1 = 0.0
+            for k in range(n):
+                s0 += S[j, k] * q[k]
+                s1 += S[j, k] * qn[k]
+            g0 = abs(kt * (s0 - z[j])) - tau_s[j]
+            g1 = abs(kt * (s1 - zn[j])) - tau_s[j]
+        else:
+            d0 = 0.0
+            d1 = 0.0
+            for k in range(n):
+                d0 += S[j, k] * v[k]
+                d1 += S[j, k] * vn[k]
+            g0 = -mode[j] * d0
+            g1 = -mode[j] * d1
+        if g1 > 0.0:
+            th = 0.0 if g0 >= 0.0 else g0 / (g0 - g1)
+            if th < best:
+                best = th
+                jb = j
+    return best, jb
+
+
+@njit(cache=True)
+def _event_g(j, q, v, z, mode, S, kt, tau_s):
+    """Event function of element ``j`` (> 0: its stick/slip state is violated)."""
+    a = 0.0
+    if mode[j] == 0:
+        for k in range(q.shape[0]):
+            a += S[j, k] * q[k]
+        return abs(kt * (a - z[j])) - tau_s[j]
+    for k in range(q.shape[0]):
+        a += S[j, k] * v[k]
+    return -mode[j] * a
+
+
+#: Illinois iterations and relative tolerance of the event location inside a step
+EVENT_ITERATIONS = 30
+EVENT_RTOL = 1e-11
+
+
+@njit(cache=True)
+def _apply_switch(j, t, q, z, mode, S, kt, tau_k, wq, ecum, stats):
+    """Switch element ``j`` at a located event: stuck -> slipping in the direction of its
+    traction (``z`` moved so that the traction is ``tau_k``; the released elastic energy is
+    dissipated), slipping -> stuck (``z`` frozen)."""
+    if mode[j] == 0:
+        s = 0.0
+        for k in range(q.shape[0]):
+            s += S[j, k] * q[k]
+        tr = kt * (s - z[j])
+        m = 1 if tr > 0 else -1
+        znew = s - m * tau_k[j] / kt
+        ecum[1] += wq[j] * 0.5 * kt * ((s - z[j]) ** 2 - (s - znew) ** 2)
+        z[j] = znew
+        mode[j] = m
+        if stats[0] == 0.0:
+            stats[0] = 1.0
+            stats[1] = t
+    else:
+        mode[j] = 0
+
+
+@njit(cache=True)
+def _accept(q, v, z, ecum, qn, vn, zn, en):
+    for i in range(q.shape[0]):
+        q[i] = qn[i]
+        v[i] = vn[i]
+    for j in range(z.shape[0]):
+        z[j] = zn[j]
+    for r in range(3):
+        ecum[r] += en[r]
+
+
+#: at most this many located switches per step (then the step is accepted and the return
+#: mapping of ``_post_step`` settles the rest)
+MAX_SWITCHES_PER_STEP = 64
+
+
+@njit(cache=True)
 def _rk4_point(p, law, Aq, Av, Bt, gv, S, wq, kt, Mm, Km, Cm, g, tip, f0, om, tau_s, tau_k,
                fc, fs, vs, kv, eps, damp, h, n_per, n_trans, n_rec, dense_every, div_limit, x0,
-               pc_state, pc_tip, pc_energy, dense, flags):
+               pc_state, pc_tip, pc_energy, dense, flags, final):
     n = Aq.shape[0]
     nq = S.shape[0]
     q, v, z, mode, ecum, stats, e0 = _start_point(p, x0, law, S, wq, kt, tau_s, tau_k, eps, Mm, Km, tip,
                                                   n_trans, dense_every, pc_state, pc_tip,
                                                   pc_energy, dense, flags)
-    k1q = np.empty(n); k1v = np.empty(n); k1z = np.empty(nq); k1e = np.empty(3)
-    k2q = np.empty(n); k2v = np.empty(n); k2z = np.empty(nq); k2e = np.empty(3)
-    k3q = np.empty(n); k3v = np.empty(n); k3z = np.empty(nq); k3e = np.empty(3)
-    k4q = np.empty(n); k4v = np.empty(n); k4z = np.empty(nq); k4e = np.empty(3)
-    tq = np.empty(n); tv = np.empty(n); tz = np.empty(nq)
+    kq = np.zeros((4, n)); kvv = np.zeros((4, n)); kz = np.zeros((4, nq)); ke = np.zeros((4, 3))
+    sq = np.zeros((4, n)); sv = np.zeros((4, n)); sz = np.zeros((4, nq))
+    qn = np.empty(n); vn = np.empty(n); zn = np.empty(nq); en = np.empty(3)
     tau = np.empty(nq)
     n_total = (n_trans + n_rec) * n_per
-    hh = 0.5 * h
+    n_switch = 0
     for step in range(n_total):
         t = step * h
-        _deriv(t, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, om, fc, fs, vs, kv,
-               eps, damp, k1q, k1v, k1z, k1e, tau)
-        _stage_state(hh, q, v, z, k1q, k1v, k1z, tq, tv, tz)
-        _deriv(t + hh, tq, tv, tz, mode, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, om, fc, fs,
-               vs, kv, eps, damp, k2q, k2v, k2z, k2e, tau)
-        _stage_state(hh, q, v, z, k2q, k2v, k2z, tq, tv, tz)
-        _deriv(t + hh, tq, tv, tz, mode, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, om, fc, fs,
-               vs, kv, eps, damp, k3q, k3v, k3z, k3e, tau)
-        _stage_state(h, q, v, z, k3q, k3v, k3z, tq, tv, tz)
-        _deriv(t + h, tq, tv, tz, mode, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, om, fc, fs,
-               vs, kv, eps, damp, k4q, k4v, k4z, k4e, tau)
-        h6 = h / 6.0
-        for i in range(n):
-            q[i] += h6 * (k1q[i] + 2.0 * k2q[i] + 2.0 * k3q[i] + k4q[i])
-            v[i] += h6 * (k1v[i] + 2.0 * k2v[i] + 2.0 * k3v[i] + k4v[i])
-        for j in range(nq):
-            z[j] += h6 * (k1z[j] + 2.0 * k2z[j] + 2.0 * k3z[j] + k4z[j])
-        for r in range(3):
-            ecum[r] += h6 * (k1e[r] + 2.0 * k2e[r] + 2.0 * k3e[r] + k4e[r])
+        # stick/slip switches located inside the step (law 0): split the step at each
+        rem = h
+        tl = t
+        for it in range(MAX_SWITCHES_PER_STEP + 1):
+            _rk4_incr(tl, rem, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, om, fc,
+                      fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau, qn, vn, zn, en, sq, sv, sz,
+                      0.0, sq, sv, sz)
+            th = 2.0
+            j = -1
+            if law == 0 and it < MAX_SWITCHES_PER_STEP:
+                th, j = _first_event(q, v, z, mode, qn, vn, zn, S, kt, tau_s)
+            if th >= 1.0:
+                _accept(q, v, z, ecum, qn, vn, zn, en)
+                break
+            if th > 0.0:
+                # refine the crossing of element j on the RK4 substep (Illinois), so that the
+                # switching time does not depend on how the step happens to be split
+                a = 0.0
+                ga = _event_g(j, q, v, z, mode, S, kt, tau_s)
+                b = 1.0
+                gb = _event_g(j, qn, vn, zn, mode, S, kt, tau_s)
+                tol = EVENT_RTOL * (abs(ga) + abs(gb))
+                side = 0
+                for itr in range(EVENT_ITERATIONS + 1):
+                    _rk4_incr(tl, th * rem, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g,
+                              f0, om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau, qn, vn, zn,
+                              en, sq, sv, sz, 0.0, sq, sv, sz)
+                    gm = _event_g(j, qn, vn, zn, mode, S, kt, tau_s)
+                    if abs(gm) <= tol or b - a <= 1e-14 or itr == EVENT_ITERATIONS:
+                        break
+                    if gm > 0.0:
+                        b = th
+                        gb = gm
+                        if side == 1:
+                            ga *= 0.5
+                        side = 1
+                    else:
+                        a = th
+                        ga = gm
+                        if side == -1:
+                            gb *= 0.5
+                        side = -1
+                    th = a - ga * (b - a) / (gb - ga)
+                    if not (a < th < b):
+                        th = 0.5 * (a + b)
+                hs = th * rem
+                _accept(q, v, z, ecum, qn, vn, zn, en)
+            else:
+                hs = 0.0
+            tl += hs
+            rem -= hs
+            _apply_switch(j, tl, q, z, mode, S, kt, tau_k, wq, ecum, stats)
+            n_switch += 1
+            if rem <= 1e-12 * h:
+                break
         k = step + 1
         tn = k * h
         inrec = k > n_trans * n_per
@@ -330,7 +506,8 @@ def _rk4_point(p, law, Aq, Av, Bt, gv, S, wq, kt, Mm, Km, Cm, g, tip, f0, om, ta
         if _end_of_step(p, k, tn, q, v, z, ecum, law, Mm, Km, S, wq, kt, tip, n_per, n_trans,
                         dense_every, div_limit, pc_state, pc_tip, pc_energy, dense, flags):
             break
-    _final_flags(p, stats, flags)
+    _final_flags(p, stats, flags, q, v, z, mode, final)
+    flags[p, 8] = n_switch
 
 
 # ---------------------------------------------------------------------------- Newmark
@@ -365,7 +542,7 @@ def _chol_solve(A, b, n):
 @njit(cache=True)
 def _newmark_point(p, S, wq, kt, Mm, Km, Cm, g, tip, f0, om, tau_s, tau_k, damp, h, n_per,
                    n_trans, n_rec, dense_every, div_limit, x0, pc_state, pc_tip, pc_energy,
-                   dense, flags):
+                   dense, flags, final):
     n = Mm.shape[0]
     nq = S.shape[0]
     law = 0
@@ -489,7 +666,7 @@ def _newmark_point(p, S, wq, kt, Mm, Km, Cm, g, tip, f0, om, tau_s, tau_k, damp,
         if _end_of_step(p, k, tn, q, v, z, ecum, law, Mm, Km, S, wq, kt, tip, n_per, n_trans,
                         dense_every, div_limit, pc_state, pc_tip, pc_energy, dense, flags):
             break
-    _final_flags(p, stats, flags)
+    _final_flags(p, stats, flags, q, v, z, mode, final)
 
 
 # ---------------------------------------------------------------------------- exponential
@@ -679,7 +856,7 @@ def _conds(zeta, SVq, SVv, z, mode, kt, tau_s, free, sbuf, sdbuf, fout, nh, fac)
 @njit(cache=True)
 def _expo_point(p, S, wq, kt, Minv, Linv, Mm, Km, Cm, g, tip, f0, om, tau_s, tau_k, damp, h, n_per,
                 n_trans, n_rec, dense_every, div_limit, x0, n_sub, cache_size,
-                pc_state, pc_tip, pc_energy, dense, flags):
+                pc_state, pc_tip, pc_energy, dense, flags, final):
     n = Mm.shape[0]
     nq = S.shape[0]
     n2 = 2 * n
@@ -982,7 +1159,7 @@ def _expo_point(p, S, wq, kt, Minv, Linv, Mm, Km, Cm, g, tip, f0, om, tau_s, tau
         if _end_of_step(p, k_step, t_end, q, v, z, ecum, law, Mm, Km, S, wq, kt, tip, n_per, n_trans,
                         dense_every, div_limit, pc_state, pc_tip, pc_energy, dense, flags):
             break
-    _final_flags(p, stats, flags)
+    _final_flags(p, stats, flags, q, v, z, mode, final)
     flags[p, 7] = n_eig
     flags[p, 8] = n_events
     flags[p, 9] = n_checks
@@ -991,32 +1168,32 @@ def _expo_point(p, S, wq, kt, Minv, Linv, Mm, Km, Cm, g, tip, f0, om, tau_s, tau
 @njit(cache=True, parallel=True)
 def _run_batch(method, law, Aq, Av, Bt, gv, S, wq, kt, Mm, Km, Cm, g, tip, f0, om, tau_s, tau_k,
                fc, fs, vs, kv, eps, damp, h, n_per, n_trans, n_rec, dense_every, div_limit, x0,
-               Minv, Linv, n_sub, cache_size, pc_state, pc_tip, pc_energy, dense, flags):
+               Minv, Linv, n_sub, cache_size, pc_state, pc_tip, pc_energy, dense, flags, final):
     P = f0.shape[0]
     for p in prange(P):
         if method[p] == 2:
             _expo_point(p, S[p], wq[p], kt[p], Minv[p], Linv[p], Mm[p], Km[p], Cm[p], g[p], tip[p], f0[p],
                         om[p], tau_s[p], tau_k[p], damp[p], h[p], n_per[p], n_trans, n_rec,
                         dense_every[p], div_limit[p], x0[p], n_sub, cache_size, pc_state,
-                        pc_tip, pc_energy, dense, flags)
+                        pc_tip, pc_energy, dense, flags, final)
         elif method[p] == 1:
             _newmark_point(p, S[p], wq[p], kt[p], Mm[p], Km[p], Cm[p], g[p], tip[p], f0[p],
                            om[p], tau_s[p], tau_k[p], damp[p], h[p], n_per[p], n_trans, n_rec,
                            dense_every[p], div_limit[p], x0[p], pc_state, pc_tip, pc_energy,
-                           dense, flags)
+                           dense, flags, final)
         else:
             _rk4_point(p, law[p], Aq[p], Av[p], Bt[p], gv[p], S[p], wq[p], kt[p], Mm[p], Km[p],
                        Cm[p], g[p], tip[p], f0[p], om[p], tau_s[p], tau_k[p], fc[p], fs[p],
                        vs[p], kv[p], eps[p], damp[p], h[p], n_per[p], n_trans, n_rec,
                        dense_every[p], div_limit[p], x0[p], pc_state, pc_tip, pc_energy,
-                       dense, flags)
+                       dense, flags, final)
 
 
 # =========================================================================== Python API
 _GEOM_KEYS = tuple(f.name for f in fields(Geometry))
 _FRIC_KEYS = tuple(f.name for f in fields(Friction))
 _LOAD_KEYS = ("f0", "f0_rel", "omega", "lam_f", "Omega")
-_INIT_KEYS = ("q0", "v0", "z0")
+_INIT_KEYS = ("q0", "v0", "z0", "mode0")
 _POINT_KEYS = set(_GEOM_KEYS) | set(_FRIC_KEYS) | set(_LOAD_KEYS) | set(_INIT_KEYS)
 
 
@@ -1063,7 +1240,9 @@ def prepare_point(**point) -> PreparedPoint:
     exactly one of ``omega`` (angular frequency, units sqrt(E / rho R^2)), ``lam_f``
     (= omega^2, the paper's lambda) and ``Omega`` (= omega / omega_1 of the stuck beam,
     default 1).  Initial state ``q0``, ``v0`` (generalised coordinates, default 0), ``z0``
-    (Jenkins internal slips, default 0).
+    (Jenkins internal slips, default 0), ``mode0`` (stick/slip state of each Jenkins element:
+    0 stuck, +-1 slipping in that direction; default 0; stick-slip law only).  A point can be
+    restarted from ``SimResult.final_state`` with :func:`restart_params`.
     """
     geom, fric = _split(point)
     model = build_model(geom)
@@ -1096,9 +1275,10 @@ def prepare_point(**point) -> PreparedPoint:
         omega = check_positive("Omega", point.get("Omega", 1.0)) * model.omega1_stuck
     # initial state
     n, nq = model.n, model.n_quad
-    x0 = np.zeros(2 * n + nq)
+    x0 = np.zeros(2 * n + 2 * nq)
     for name, sl, size in (("q0", slice(0, n), n), ("v0", slice(n, 2 * n), n),
-                           ("z0", slice(2 * n, 2 * n + nq), nq)):
+                           ("z0", slice(2 * n, 2 * n + nq), nq),
+                           ("mode0", slice(2 * n + nq, 2 * n + 2 * nq), nq)):
         val = point.get(name)
         if val is not None:
             arr = np.asarray(val, dtype=float).ravel()
@@ -1106,6 +1286,8 @@ def prepare_point(**point) -> PreparedPoint:
                 raise ValueError(f"{name} must have {size} entries, got {arr.size}")
             if not np.all(np.isfinite(arr)):
                 raise ValueError(f"{name} must be finite")
+            if name == "mode0" and not np.all(np.isin(arr, (-1.0, 0.0, 1.0))):
+                raise ValueError("mode0 entries must be -1, 0 (stuck) or +1 (slipping direction)")
             x0[sl] = arr
     tau_s, tau_k, fc, fs = fric.limits(model.theta_q, pj)
     # regularisation band and stiffness of the regularised laws
@@ -1144,6 +1326,8 @@ class SimResult:
         energy), E_interface -- cumulative since t = 0 (E_mech: current value).
     diss_per_cycle : (n_record,) friction dissipation in each recorded forcing period.
     dense_t, dense : optional dense history (columns TIP_COLUMNS [+ q, v]).
+    final_state : (2 n + 2 n_quad,) state at the end of the run: q, v, Jenkins slips z, and the
+        stick/slip state of each element (0 stuck, +-1 slipping); see :func:`restart_params`.
     """
 
     params: dict
@@ -1172,6 +1356,7 @@ class SimResult:
     n_checks: int = 0
     dense_t: np.ndarray | None = None
     dense: np.ndarray | None = None
+    final_state: np.ndarray | None = None
 
     @property
     def diss_per_cycle(self) -> np.ndarray:
@@ -1218,6 +1403,68 @@ class BatchResult:
                        **{f"{c}_last": last[i] for i, c in enumerate(TIP_COLUMNS)})
             rows.append(row)
         return pd.DataFrame(rows)
+
+
+def period_steps(pp: PreparedPoint, method: str = "rk4", steps_per_period: int | None = None,
+                 step_factor: float = 0.5) -> int:
+    """Fixed steps per forcing period ``T = 2 pi / omega``: ``steps_per_period`` if given, else
+    RK4 ``max(64, ceil(T omega_max / step_factor))`` (``omega_max``: fastest rate of the
+    point's linear part), expo 128, Newmark 256."""
+    if steps_per_period is not None:
+        return int(steps_per_period)
+    if method == "newmark":
+        return 256
+    if method == "expo":
+        return 128
+    T = 2 * math.pi / pp.omega
+    return max(64, int(math.ceil(T * pp.omega_max / step_factor)))
+
+
+class StackedPoints(SimpleNamespace):
+    """Per-point kernel inputs stacked along a leading point axis (see :func:`stack_points`)."""
+
+
+def stack_points(prepared: list, div_limit: float = 1e3) -> StackedPoints:
+    """Stack the kernel inputs of prepared points (same ``n`` and ``n_quad``): matrices of the
+    first-order form (``Aq = -M^-1 K``, ``Av = -M^-1 C``, ``Bt = -M^-1 S^T W``, ``gv = M^-1 g``),
+    friction limits, initial states ``x0 = (q, v, z, mode)`` and divergence limits."""
+    P = len(prepared)
+    n = prepared[0].model.n
+    nq = prepared[0].model.n_quad
+    Aq = np.empty((P, n, n)); Av = np.empty((P, n, n)); Bt = np.empty((P, n, nq))
+    gv = np.empty((P, n)); S = np.empty((P, nq, n)); wq = np.empty((P, nq)); kt = np.empty(P)
+    Mm = np.empty((P, n, n)); Km = np.empty((P, n, n)); Cm = np.empty((P, n, n))
+    g = np.empty((P, n)); tip = np.empty((P, 4, n))
+    f0 = np.empty(P); om = np.empty(P); tau_s = np.empty((P, nq)); tau_k = np.empty((P, nq))
+    fc = np.empty((P, nq)); fs = np.empty((P, nq)); vs = np.empty(P); kv = np.empty(P)
+    eps = np.empty(P); damp = np.zeros(P, np.bool_); law = np.empty(P, np.int64)
+    x0 = np.empty((P, 2 * n + 2 * nq))
+    Mi = np.empty((P, n, n))
+    Li = np.empty((P, n, n))
+    divl = np.empty(P)
+    cache = {}
+    for i, pp in enumerate(prepared):
+        md = pp.model
+        key = id(md)
+        if key not in cache:
+            Minv = np.linalg.inv(md.M)
+            cache[key] = (-Minv @ md.K, -Minv @ md.C, -Minv @ (md.S.T * md.wq), Minv @ md.g,
+                          Minv, np.linalg.inv(np.linalg.cholesky(md.M)))
+        Aq[i], Av[i], Bt[i], gv[i], Mi[i], Li[i] = cache[key]
+        S[i], wq[i], kt[i] = md.S, md.wq, md.geom.k_t
+        Mm[i], Km[i], Cm[i], g[i], tip[i] = md.M, md.K, md.C, md.g, md.tip
+        f0[i], om[i] = pp.f0, pp.omega
+        tau_s[i], tau_k[i], fc[i], fs[i] = pp.tau_s, pp.tau_k, pp.fc, pp.fs
+        vs[i], kv[i], eps[i] = pp.friction.v_s, pp.friction.k_v, pp.eps_v
+        damp[i] = bool(np.any(md.C != 0.0))
+        law[i] = pp.friction.code
+        x0[i] = pp.x0
+        qref = max(2.0 * pp.f0 * np.abs(md.static_unit_frictionless).max(),
+                   np.abs(pp.x0[:n]).max(), np.abs(pp.x0[n:2 * n]).max() / pp.omega)
+        divl[i] = div_limit * (qref if qref > 0 else 1.0)
+    return StackedPoints(Aq=Aq, Av=Av, Bt=Bt, gv=gv, S=S, wq=wq, kt=kt, Mm=Mm, Km=Km, Cm=Cm, g=g,
+                         tip=tip, f0=f0, om=om, tau_s=tau_s, tau_k=tau_k, fc=fc, fs=fs, vs=vs,
+                         kv=kv, eps=eps, damp=damp, law=law, x0=x0, Mi=Mi, Li=Li, divl=divl)
 
 
 def simulate_batch(points, *, n_transient: int = 50, n_record: int = 50,
@@ -1285,52 +1532,18 @@ def simulate_batch(points, *, n_transient: int = 50, n_record: int = 50,
     dense_every = np.zeros(P, np.int64)
     for i, pp in enumerate(prepared):
         T = 2 * math.pi / pp.omega
-        if steps_per_period is not None:
-            m = steps_per_period
-        elif method == "newmark":
-            m = 256
-        elif method == "expo":
-            m = 128
-        else:
-            m = max(64, int(math.ceil(T * pp.omega_max / step_factor)))
+        m = period_steps(pp, method, steps_per_period, step_factor)
         if dpp > 0:
             m = int(math.ceil(m / dpp) * dpp)
             dense_every[i] = m // dpp
         n_per[i] = m
         h[i] = T / m
-    # stack per-point arrays
-    Aq = np.empty((P, n, n)); Av = np.empty((P, n, n)); Bt = np.empty((P, n, nq))
-    gv = np.empty((P, n)); S = np.empty((P, nq, n)); wq = np.empty((P, nq)); kt = np.empty(P)
-    Mm = np.empty((P, n, n)); Km = np.empty((P, n, n)); Cm = np.empty((P, n, n))
-    g = np.empty((P, n)); tip = np.empty((P, 4, n))
-    f0 = np.empty(P); om = np.empty(P); tau_s = np.empty((P, nq)); tau_k = np.empty((P, nq))
-    fc = np.empty((P, nq)); fs = np.empty((P, nq)); vs = np.empty(P); kv = np.empty(P)
-    eps = np.empty(P); damp = np.zeros(P, np.bool_); law = np.empty(P, np.int64)
+    k = stack_points(prepared, div_limit)
+    Aq, Av, Bt, gv, S, wq, kt = k.Aq, k.Av, k.Bt, k.gv, k.S, k.wq, k.kt
+    Mm, Km, Cm, g, tip, f0, om = k.Mm, k.Km, k.Cm, k.g, k.tip, k.f0, k.om
+    tau_s, tau_k, fc, fs, vs, kv, eps = k.tau_s, k.tau_k, k.fc, k.fs, k.vs, k.kv, k.eps
+    damp, law, x0, Mi, Li, divl = k.damp, k.law, k.x0, k.Mi, k.Li, k.divl
     meth = np.full(P, METHODS[method], np.int64)
-    x0 = np.empty((P, 2 * n + nq))
-    Mi = np.empty((P, n, n))
-    Li = np.empty((P, n, n))
-    divl = np.empty(P)
-    cache = {}
-    for i, pp in enumerate(prepared):
-        md = pp.model
-        key = id(md)
-        if key not in cache:
-            Minv = np.linalg.inv(md.M)
-            cache[key] = (-Minv @ md.K, -Minv @ md.C, -Minv @ (md.S.T * md.wq), Minv @ md.g,
-                          Minv, np.linalg.inv(np.linalg.cholesky(md.M)))
-        Aq[i], Av[i], Bt[i], gv[i], Mi[i], Li[i] = cache[key]
-        S[i], wq[i], kt[i] = md.S, md.wq, md.geom.k_t
-        Mm[i], Km[i], Cm[i], g[i], tip[i] = md.M, md.K, md.C, md.g, md.tip
-        f0[i], om[i] = pp.f0, pp.omega
-        tau_s[i], tau_k[i], fc[i], fs[i] = pp.tau_s, pp.tau_k, pp.fc, pp.fs
-        vs[i], kv[i], eps[i] = pp.friction.v_s, pp.friction.k_v, pp.eps_v
-        damp[i] = md.geom.damping > 0
-        law[i] = pp.friction.code
-        x0[i] = pp.x0
-        qref = max(2.0 * pp.f0 * np.abs(md.static_unit_frictionless).max(),
-                   np.abs(pp.x0[:n]).max(), np.abs(pp.x0[n:2 * n]).max() / pp.omega)
-        divl[i] = div_limit * (qref if qref > 0 else 1.0)
     n_dense = int(((n_trans + n_rec) * dpp) + 1) if dpp > 0 else 1
     ncol = 4 + (2 * n if dense_full else 0)
     pc_state = np.full((P, n_rec + 1, 2 * n), np.nan)
@@ -1338,6 +1551,7 @@ def simulate_batch(points, *, n_transient: int = 50, n_record: int = 50,
     pc_energy = np.full((P, n_rec + 1, 5), np.nan)
     dense = np.full((P, n_dense, ncol), np.nan)
     flags = np.zeros((P, 10))
+    final = np.full((P, 2 * n + 2 * nq), np.nan)
     old_threads = numba.get_num_threads()
     if n_threads is not None:
         numba.set_num_threads(check_int("n_threads", n_threads, 1))
@@ -1345,7 +1559,7 @@ def simulate_batch(points, *, n_transient: int = 50, n_record: int = 50,
     try:
         _run_batch(meth, law, Aq, Av, Bt, gv, S, wq, kt, Mm, Km, Cm, g, tip, f0, om, tau_s, tau_k,
                    fc, fs, vs, kv, eps, damp, h, n_per, n_trans, n_rec, dense_every, divl,
-                   x0, Mi, Li, n_sub, cache_size, pc_state, pc_tip, pc_energy, dense, flags)
+                   x0, Mi, Li, n_sub, cache_size, pc_state, pc_tip, pc_energy, dense, flags, final)
     finally:
         if n_threads is not None:
             numba.set_num_threads(old_threads)
@@ -1368,8 +1582,18 @@ def simulate_batch(points, *, n_transient: int = 50, n_record: int = 50,
             slipped=bool(flags[i, 2]), t_first_slip=float(flags[i, 3]),
             stick_fraction=float(flags[i, 4]), stick_fraction_all=float(flags[i, 6]),
             n_patterns=int(flags[i, 7]), n_events=int(flags[i, 8]), n_checks=int(flags[i, 9]),
-            dense_t=dt, dense=de))
+            dense_t=dt, dense=de, final_state=final[i]))
     return BatchResult(points=points, results=results, wall_time=wall)
+
+
+def restart_params(result: SimResult) -> dict:
+    """Parameters that continue ``result`` from its final state (the forcing is periodic and
+    every run ends on a period boundary, so restarting at ``t = 0`` is exact)."""
+    n = len(result.coord_names)
+    x = np.asarray(result.final_state, dtype=float)
+    nq = (x.size - 2 * n) // 2
+    return dict(result.params, q0=x[:n].copy(), v0=x[n:2 * n].copy(),
+                z0=x[2 * n:2 * n + nq].copy(), mode0=x[2 * n + nq:].copy())
 
 
 def simulate(n_transient: int = 50, n_record: int = 50, steps_per_period: int | None = None,

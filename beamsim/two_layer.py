@@ -103,6 +103,14 @@ class Geometry:
         ``n_slip == 0``, else 2 Gauss points per slip element).
     damping : modal damping ratio zeta applied to every mode of the *frictionless* structure
         (material damping of the layers, independent of the interface state).
+    interface_damping : damping ratio zeta_t of the stiffest mode of the stuck interface, from a
+        viscous (Kelvin-Voigt) element in parallel with every Jenkins element:
+        ``T_visc = c_t s'`` with ``c_t = 2 zeta_t k_t / omega_max_stuck`` (stiffness-
+        proportional on the interface springs, so the slow structural modes get
+        ``zeta_n ~ zeta_t (omega_n / omega_max) (share of interface strain energy)``, i.e.
+        essentially none).  It removes the undamped ringing of the penalty springs' own
+        modes (an artefact of the elastic-stick model: the real stuck interface is rigid),
+        which every stick/slip switch excites (docs/model.md).  0 = none (the paper).
     bc : end conditions of the arch modes (the paper: clamped-free).
     alpha_modes : thickness of the single layer whose modes are the basis
         (``None`` -> ``(alpha1 + alpha2) / 2``).
@@ -117,6 +125,7 @@ class Geometry:
     n_slip: int = 0
     n_quad: int | None = None
     damping: float = 0.0
+    interface_damping: float = 0.0
     bc: str = "clamped-free"
     alpha_modes: float | None = None
 
@@ -143,6 +152,11 @@ class Geometry:
         zeta = check_nonnegative("damping", self.damping)
         if zeta >= 1.0:
             raise ValueError(f"damping must be < 1 (modal damping ratio), got {self.damping!r}")
+        zt = check_nonnegative("interface_damping", self.interface_damping)
+        if zt > 10.0:
+            raise ValueError("interface_damping must be <= 10 (damping ratio of the stiffest "
+                             f"stuck-interface mode), got {self.interface_damping!r}")
+        object.__setattr__(self, "interface_damping", zt)
         if self.bc not in BCS:
             raise ValueError(f"bc must be one of {BCS}, got {self.bc!r}")
         am = 0.5 * (a1 + a2) if self.alpha_modes is None else check_positive("alpha_modes", self.alpha_modes)
@@ -453,5 +467,10 @@ def build_model(geom: Geometry) -> TwoLayerModel:
         C = 0.5 * (C + C.T)
     else:
         C = np.zeros((n, n))
+    if geom.interface_damping > 0:
+        KI = (S.T * (geom.k_t * wq)) @ S
+        om_max = math.sqrt(max(sla.eigh(K + KI, M, eigvals_only=True)[-1], 0.0))
+        C = C + (2.0 * geom.interface_damping / om_max) * KI
+        C = 0.5 * (C + C.T)
     return TwoLayerModel(geom=geom, modes=modes, M=M, K=K, C=C, S=S, theta_q=theta_q, wq=wq,
                          g=g, tip=tip)

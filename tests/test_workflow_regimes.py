@@ -60,7 +60,7 @@ def test_outputs_table_schema_and_metadata(first_run):
         assert (out / name).stat().st_size > 0, name
     table = pd.read_parquet(out / "tiny.parquet")
     assert list(table["f0_rel"]) == [0.5, 3.0]  # grid order
-    for col in ("point_id", "label", "period", "lle_two_trajectory", "lle_nolds", "lle_stefanski", "K",
+    for col in ("point_id", "label", "period", "lle_stefanski", "lle_benettin", "lle_nolds", "lle_stefanski_verdict", "K",
                 "slipped", "t_first_slip", "stick_fraction", "diss_per_cycle", "diverged", "settled",
                 "params_json", "poincare_w_tip", "reason"):
         assert col in table.columns, col

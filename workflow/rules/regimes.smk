@@ -23,6 +23,7 @@ rule lyapunov_chunk:
     params:
         points=chunk_payload,
         numerics=RESULT_NUMERICS,
+    threads: 2
     log:
         "logs/regimes/{grid}/lyapunov_{chunk}.log",
     conda:
@@ -39,6 +40,7 @@ rule classify_chunk:
         table="results/regimes/{grid}/chunks/{chunk}.classify.parquet",
     params:
         points=chunk_payload,
+        numerics=RESULT_NUMERICS,
     log:
         "logs/regimes/{grid}/classify_{chunk}.log",
     conda:

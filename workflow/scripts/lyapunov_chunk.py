@@ -12,5 +12,6 @@ from analysis.regime_pipeline import lyapunov_points  # noqa: E402
 
 logging.basicConfig(stream=sys.stderr, level=logging.INFO, format="%(asctime)s %(message)s")
 simulated = pd.read_parquet(snakemake.input.simulate)  # noqa: F821
-table = lyapunov_points(snakemake.params.points, simulated, snakemake.params.numerics)  # noqa: F821
+table = lyapunov_points(snakemake.params.points, simulated, snakemake.params.numerics,  # noqa: F821
+                        store_root="results/store", threads=snakemake.threads)  # noqa: F821
 table.to_parquet(snakemake.output.table, index=False)  # noqa: F821

@@ -1,0 +1,296 @@
+r"""A drive trajectory of the beam and perturbed copies of it, integrated together (RK4).
+
+This is the integrator behind the beam's Lyapunov estimates (:mod:`analysis.beam_lyapunov`).
+One *drive* ``x = (q, v, z)`` (generalised coordinates, velocities, Jenkins slips) with its
+stick/slip state, started from a full restart state (``SimResult.final_state``), and ``M``
+*copies* ``y_m`` started at ``x + offset_m``, each with its own stick/slip state, obey
+
+.. math::  \dot x = f(t, x), \qquad \dot y_m = f(t, y_m) + d_m\,(x - y_m)
+
+on every continuous state variable (``q``, ``v`` and ``z``): ``d_m = 0`` is a free copy
+(two-trajectory / Benettin estimate), ``d_m > 0`` is the one-way coupling of the Stefanski
+synchronisation method.  All of them use the RK4 reference scheme of
+:mod:`beamsim.simulate` with the same step; the coupling enters every RK4 stage with the
+drive's stage state, so the coupled pair is integrated as one system.  Each copy's Jenkins
+elements are return-mapped after every step exactly as the drive's.
+
+The scaled error of copy ``m`` is the RMS over the ``2 n`` components of ``(q, v)``:
+
+.. math::  \varepsilon_m = \sqrt{\tfrac{1}{2n}\sum_i ((y_{m,i} - x_i)\,/\,s_i)^2}
+
+(``s_i``: the attractor's size in component ``i``).  To keep the copies in the linear regime
+and off the round-off floor, a copy whose error leaves ``[band_lo, band_hi]`` is moved back
+along its current direction to ``e0`` (about the drive, on ``q``, ``v`` and ``z``), and the
+factor is carried in the recorded ``ln eps`` (so the record is the error of the linearised,
+unbounded dynamics).  Copies flagged ``renorm_period`` are moved back to ``e0`` at every
+period end as well (the classic Benettin renormalisation).  ``ln eps`` is recorded at every
+forcing period boundary.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from numba import njit, prange
+
+from beamsim.simulate import (EVENT_ITERATIONS, EVENT_RTOL, MAX_SWITCHES_PER_STEP, _accept,
+                              _apply_switch, _diverged, _event_g, _first_event, _post_step,
+                              _rk4_incr, check_int, check_positive, period_steps, stack_points)
+
+__all__ = ["run_copies"]
+
+
+@njit(cache=True)
+def _error(q, v, yq, yv, inv_scale):
+    n = q.shape[0]
+    acc = 0.0
+    for i in range(n):
+        a = (yq[i] - q[i]) * inv_scale[i]
+        b = (yv[i] - v[i]) * inv_scale[n + i]
+        acc += a * a + b * b
+    return math.sqrt(acc / (2 * n))
+
+
+@njit(cache=True)
+def _rescale(fac, q, v, z, yq, yv, yz):
+    for i in range(q.shape[0]):
+        yq[i] = q[i] + fac * (yq[i] - q[i])
+        yv[i] = v[i] + fac * (yv[i] - v[i])
+    for j in range(z.shape[0]):
+        yz[j] = z[j] + fac * (yz[j] - z[j])
+
+
+@njit(cache=True)
+def _copies_task(p, c0, c1, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, om, tau_s, tau_k, fc, fs,
+                 vs, kv, eps, damp, h, n_per, n_periods, x_start, offsets, d, renorm_period,
+                 inv_scale, e0, band_lo, band_hi, div_limit, log_err):
+    n = Aq.shape[0]
+    nq = S.shape[0]
+    M = c1 - c0
+    # row 0: the drive, rows 1..M: the copies
+    Q = np.empty((M + 1, n)); V = np.empty((M + 1, n)); Z = np.empty((M + 1, nq))
+    MODE = np.zeros((M + 1, nq), np.int64)
+    for i in range(n):
+        Q[0, i] = x_start[i]
+        V[0, i] = x_start[n + i]
+    for j in range(nq):
+        Z[0, j] = x_start[2 * n + j]
+        MODE[0, j] = int(x_start[2 * n + nq + j])
+    for m in range(M):
+        for i in range(n):
+            Q[m + 1, i] = Q[0, i] + offsets[c0 + m, i]
+            V[m + 1, i] = V[0, i] + offsets[c0 + m, n + i]
+        for j in range(nq):
+            Z[m + 1, j] = Z[0, j] + offsets[c0 + m, 2 * n + j]
+            MODE[m + 1, j] = MODE[0, j]
+    dd = np.zeros(M + 1)
+    for m in range(M):
+        dd[m + 1] = d[c0 + m]
+    logacc = np.zeros(M)
+    alive = np.ones(M + 1, np.bool_)
+    ecum = np.zeros(3)
+    stats = np.zeros(6)
+    tau = np.empty(nq)
+    kq = np.zeros((4, n)); kvv = np.zeros((4, n)); kz = np.zeros((4, nq)); ke = np.zeros((4, 3))
+    SQ = np.zeros((M + 1, 4, n)); SV = np.zeros((M + 1, 4, n)); SZ = np.zeros((M + 1, 4, nq))
+    QN = np.empty((M + 1, n)); VN = np.empty((M + 1, n)); ZN = np.empty((M + 1, nq))
+    EN = np.empty((M + 1, 3))
+    for m in range(M):
+        e = _error(Q[0], V[0], Q[m + 1], V[m + 1], inv_scale)
+        log_err[p, c0 + m, 0] = math.log(e) if e > 0.0 else -np.inf
+    for step in range(n_periods * n_per):
+        t = (step % n_per) * h
+        rem = h
+        tl = t
+        for it in range(MAX_SWITCHES_PER_STEP * (M + 1) + 1):
+            # all trajectories over the remaining step; the earliest switch of any splits it
+            th = 2.0
+            jb = 0
+            who = 0
+            for r in range(M + 1):
+                if not alive[r]:
+                    continue
+                _rk4_incr(tl, rem, Q[r], V[r], Z[r], MODE[r], law, Aq, Av, Bt, gv, S, wq, kt, Cm,
+                          g, f0, om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau, QN[r],
+                          VN[r], ZN[r], EN[r], SQ[r], SV[r], SZ[r], dd[r], SQ[0], SV[0], SZ[0])
+                if law == 0 and it < MAX_SWITCHES_PER_STEP * (M + 1):
+                    thr, jr = _first_event(Q[r], V[r], Z[r], MODE[r], QN[r], VN[r], ZN[r], S,
+                                           kt, tau_s)
+                    if thr < th:
+                        th = thr
+                        jb = jr
+                        who = r
+            if th >= 1.0:
+                for r in range(M + 1):
+                    if alive[r]:
+                        _accept(Q[r], V[r], Z[r], ecum, QN[r], VN[r], ZN[r], EN[r])
+                break
+            hs = 0.0
+            if th > 0.0:
+                # refine the crossing on trajectory `who` (Illinois; as in beamsim.simulate)
+                a = 0.0
+                ga = _event_g(jb, Q[who], V[who], Z[who], MODE[who], S, kt, tau_s)
+                b = 1.0
+                gb = _event_g(jb, QN[who], VN[who], ZN[who], MODE[who], S, kt, tau_s)
+                tol = EVENT_RTOL * (abs(ga) + abs(gb))
+                side = 0
+                for itr in range(EVENT_ITERATIONS):
+                    hs = th * rem
+                    if who > 0 and dd[who] != 0.0:
+                        _rk4_incr(tl, hs, Q[0], V[0], Z[0], MODE[0], law, Aq, Av, Bt, gv, S, wq, kt,
+                                  Cm, g, f0, om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau,
+                                  QN[0], VN[0], ZN[0], EN[0], SQ[0], SV[0], SZ[0], 0.0, SQ[0],
+                                  SV[0], SZ[0])
+                    _rk4_incr(tl, hs, Q[who], V[who], Z[who], MODE[who], law, Aq, Av, Bt, gv, S, wq,
+                              kt, Cm, g, f0, om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau,
+                              QN[who], VN[who], ZN[who], EN[who], SQ[who], SV[who], SZ[who],
+                              dd[who], SQ[0], SV[0], SZ[0])
+                    gm = _event_g(jb, QN[who], VN[who], ZN[who], MODE[who], S, kt, tau_s)
+                    if abs(gm) <= tol or b - a <= 1e-14:
+                        break
+                    if gm > 0.0:
+                        b = th
+                        gb = gm
+                        if side == 1:
+                            ga *= 0.5
+                        side = 1
+                    else:
+                        a = th
+                        ga = gm
+                        if side == -1:
+                            gb *= 0.5
+                        side = -1
+                    th = a - ga * (b - a) / (gb - ga)
+                    if not (a < th < b):
+                        th = 0.5 * (a + b)
+                hs = th * rem
+                for r in range(M + 1):
+                    if alive[r]:
+                        _rk4_incr(tl, hs, Q[r], V[r], Z[r], MODE[r], law, Aq, Av, Bt, gv, S, wq,
+                                  kt, Cm, g, f0, om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke,
+                                  tau, QN[r], VN[r], ZN[r], EN[r], SQ[r], SV[r], SZ[r], dd[r],
+                                  SQ[0], SV[0], SZ[0])
+                for r in range(M + 1):
+                    if alive[r]:
+                        _accept(Q[r], V[r], Z[r], ecum, QN[r], VN[r], ZN[r], EN[r])
+            tl += hs
+            rem -= hs
+            _apply_switch(jb, tl, Q[who], Z[who], MODE[who], S, kt, tau_k, wq, ecum, stats)
+            if rem <= 1e-12 * h:
+                break
+        tn = (step + 1) * h
+        for r in range(M + 1):
+            if alive[r]:
+                _post_step(tn, Q[r], V[r], Z[r], MODE[r], law, S, wq, kt, tau_s, tau_k, eps,
+                           ecum, stats, False)
+        if _diverged(Q[0], V[0], div_limit):
+            for m in range(M):
+                for k in range(log_err.shape[2]):
+                    log_err[p, c0 + m, k] = np.nan
+            return
+        period_end = (step + 1) % n_per == 0
+        for m in range(M):
+            r = m + 1
+            if not alive[r]:
+                continue
+            e = _error(Q[0], V[0], Q[r], V[r], inv_scale)
+            if not math.isfinite(e):
+                alive[r] = False
+                for k in range((step + 1) // n_per, log_err.shape[2]):
+                    log_err[p, c0 + m, k] = np.inf
+                continue
+            if period_end:
+                k = (step + 1) // n_per
+                log_err[p, c0 + m, k] = (math.log(e) + logacc[m]) if e > 0.0 else -np.inf
+            if e > 0.0 and (e > band_hi or e < band_lo or (period_end and renorm_period[c0 + m])):
+                logacc[m] += math.log(e / e0)
+                _rescale(e0 / e, Q[0], V[0], Z[0], Q[r], V[r], Z[r])
+
+
+@njit(cache=True, parallel=True)
+def _run_tasks(task_p, task_c0, task_c1, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, om, tau_s,
+               tau_k, fc, fs, vs, kv, eps, damp, h, n_per, n_periods, x_start, offsets, d,
+               renorm_period, inv_scale, e0, band_lo, band_hi, div_limit, log_err):
+    for k in prange(task_p.shape[0]):
+        p = task_p[k]
+        _copies_task(p, task_c0[k], task_c1[k], law[p], Aq[p], Av[p], Bt[p], gv[p], S[p], wq[p],
+                     kt[p], Cm[p], g[p], f0[p], om[p], tau_s[p], tau_k[p], fc[p], fs[p], vs[p],
+                     kv[p], eps[p], damp[p], h[p], n_per[p], n_periods, x_start[p], offsets[p],
+                     d[p], renorm_period[p], inv_scale[p], e0, band_lo, band_hi, div_limit[p],
+                     log_err)
+
+
+def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.ndarray,
+               inv_scale: np.ndarray, *, n_periods: int, e0: float,
+               renorm_period: np.ndarray | None = None, band: tuple[float, float] = (1e-4, 1e4),
+               steps_per_period: int | None = None, step_factor: float = 0.5,
+               n_threads: int | None = None, split: int | None = None,
+               div_limit: float = 1e6) -> np.ndarray:
+    """Integrate the drive and its copies for ``n_periods`` forcing periods (see the module
+    docstring) and return ``ln eps`` of shape ``(P, M, n_periods + 1)`` at the period
+    boundaries (``nan``: the drive diverged; ``+inf``: the copy did).
+
+    prepared : ``P`` points (:func:`beamsim.simulate.prepare_point`, same ``n`` and ``n_quad``).
+    x_start : ``(P, 2 n + 2 n_quad)`` drive restart states ``(q, v, z, mode)``
+        (``SimResult.final_state``; the run restarts the forcing phase at ``t = 0``).
+    offsets : ``(P, M, 2 n + n_quad)`` initial ``y_m - x`` on ``(q, v, z)``.
+    d : ``(P, M)`` couplings (1 / time unit); ``0`` = free copy.
+    inv_scale : ``(P, 2 n)`` inverse attractor size per component of ``(q, v)``.
+    e0, band : rescaling target and band ``[e0 band[0], e0 band[1]]`` of the scaled error.
+    renorm_period : ``(P, M)`` bool, copies also rescaled to ``e0`` at every period end.
+    split : tasks per point, each integrating its own copy of the drive with its share of the
+        copies.  Default ``M``: every copy with its own drive, so a copy's record does not
+        depend on which other copies run (the drive's steps are split at the switching
+        instants of the copies it carries, which changes it at round-off level); results do
+        not depend on the number of threads.
+    """
+    P = len(prepared)
+    x_start = np.ascontiguousarray(x_start, dtype=float)
+    offsets = np.ascontiguousarray(offsets, dtype=float)
+    d = np.ascontiguousarray(d, dtype=float)
+    inv_scale = np.ascontiguousarray(inv_scale, dtype=float)
+    n_periods = check_int("n_periods", n_periods, 1)
+    e0 = check_positive("e0", e0)
+    if P == 0:
+        raise ValueError("prepared must not be empty")
+    n, nq = prepared[0].model.n, prepared[0].model.n_quad
+    M = offsets.shape[1] if offsets.ndim == 3 else -1
+    if offsets.shape != (P, M, 2 * n + nq) or d.shape != (P, M):
+        raise ValueError(f"offsets must be (P, M, {2 * n + nq}) and d (P, M); got "
+                         f"{offsets.shape} and {d.shape}")
+    if x_start.shape != (P, 2 * n + 2 * nq) or inv_scale.shape != (P, 2 * n):
+        raise ValueError("x_start must be (P, 2 n + 2 n_quad) and inv_scale (P, 2 n)")
+    if not (np.all(np.isfinite(x_start)) and np.all(np.isfinite(offsets)) and np.all(d >= 0)):
+        raise ValueError("x_start and offsets must be finite and d >= 0")
+    if renorm_period is None:
+        renorm_period = np.zeros((P, M), np.bool_)
+    renorm_period = np.ascontiguousarray(renorm_period, dtype=np.bool_)
+    k = stack_points(prepared, div_limit)
+    h = np.empty(P)
+    n_per = np.empty(P, np.int64)
+    for i, pp in enumerate(prepared):
+        n_per[i] = period_steps(pp, "rk4", steps_per_period, step_factor)
+        h[i] = 2 * math.pi / pp.omega / n_per[i]
+    threads = numba.get_num_threads() if n_threads is None else check_int("n_threads", n_threads, 1)
+    split = M if split is None else max(1, min(M, int(split)))
+    tp, t0, t1 = [], [], []
+    for p in range(P):
+        for chunk in np.array_split(np.arange(M), split):
+            if chunk.size:
+                tp.append(p); t0.append(int(chunk[0])); t1.append(int(chunk[-1]) + 1)
+    log_err = np.full((P, M, n_periods + 1), np.nan)
+    old = numba.get_num_threads()
+    if n_threads is not None:
+        numba.set_num_threads(threads)
+    try:
+        _run_tasks(np.array(tp, np.int64), np.array(t0, np.int64), np.array(t1, np.int64),
+                   k.law, k.Aq, k.Av, k.Bt, k.gv, k.S, k.wq, k.kt, k.Cm, k.g, k.f0, k.om, k.tau_s,
+                   k.tau_k, k.fc, k.fs, k.vs, k.kv, k.eps, k.damp, h, n_per, n_periods, x_start,
+                   offsets, d, renorm_period, inv_scale, e0, e0 * band[0], e0 * band[1],
+                   k.divl, log_err)
+    finally:
+        if n_threads is not None:
+            numba.set_num_threads(old)
+    return log_err
