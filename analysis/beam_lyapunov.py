@@ -93,10 +93,13 @@ def initial_offset(prepared, scale: np.ndarray, e0: float, seed: int = 0, n_slow
     n, nq = model.n, model.n_quad
     lam, phi = model.eig_stuck
     k = max(1, min(int(n_slow), n))
+    # eigenvector signs are arbitrary (LAPACK's depend on the threading): fix them, so the
+    # direction -- and every result -- is the same on any machine setting
+    phi = phi[:, :k] * np.sign(phi[np.argmax(np.abs(phi[:, :k]), axis=0), np.arange(k)])
     u = _perturbation(2 * k, seed)
     om = np.sqrt(np.maximum(lam[:k], 0.0))
-    dq = phi[:, :k] @ u[:k]
-    dv = phi[:, :k] @ (om * u[k:])
+    dq = phi @ u[:k]
+    dv = phi @ (om * u[k:])
     x = np.concatenate([dq, dv])
     rms = math.sqrt(np.mean((x / scale) ** 2))
     off = np.zeros(2 * n + nq)

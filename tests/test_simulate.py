@@ -233,20 +233,23 @@ def test_newmark_agrees_with_rk4():
 
 
 def test_expo_agrees_with_rk4():
-    """The exact-propagation / event-location scheme is the limit of the RK4 reference as the
-    RK4 step shrinks (default model, stick-slip regime, mu_s = mu_k; undamped and damped)."""
+    """The exact-propagation / event-location scheme agrees with the RK4 reference (default
+    model, stick-slip regime, mu_s = mu_k; undamped and damped) to its own accuracy."""
     for extra in ({}, {"damping": 0.02}):
         base = dict(n_modes=3, f0_rel=3.0, Omega=1.2, n_transient=2, n_record=3, **extra)
         ex = simulate(method="expo", **base)
         d = []
-        for sf in (0.5, 0.25):
-            rk = simulate(step_factor=sf, **base)
-            d.append(np.abs(rk.poincare_state - ex.poincare_state).max()
-                     / np.abs(ex.poincare_state).max())
-        print(f"\nexpo vs RK4 (step_factor 0.5, 0.25) {extra}: {d}; "
+        rks = [simulate(step_factor=sf, **base) for sf in (0.5, 0.25)]
+        size = np.abs(ex.poincare_state).max()
+        for rk in rks:
+            d.append(np.abs(rk.poincare_state - ex.poincare_state).max() / size)
+        d_rk = np.abs(rks[0].poincare_state - rks[1].poincare_state).max() / size
+        print(f"\nexpo vs RK4 (step_factor 0.5, 0.25) {extra}: {d}; RK4 h vs h/2: {d_rk:.1e}; "
               f"{ex.n_patterns} stick patterns, {ex.n_events} events")
         assert ex.slipped and 0 < ex.stick_fraction < 1
-        assert d[1] < d[0] and d[0] < 1e-3
+        # RK4 (switches located) converges to expo as the step shrinks, until the difference
+        # reaches expo's own event-location error (~6e-6, docs/model.md)
+        assert max(d) < 1e-3 and (d[1] < 0.5 * d[0] or max(d) < 2e-5)
 
 
 def test_expo_energy_ledger_and_linear_limit():
@@ -360,7 +363,8 @@ def test_interface_damping_spares_the_structural_modes():
     """The Kelvin-Voigt element c_t = 2 zeta_t k_t / omega_max (interface_damping = zeta_t)
     damps the stuck interface's own (penalty) modes and leaves the structural modes alone:
     damping ratios of the first three stuck modes < 1e-3, their frequencies unchanged to 1e-5,
-    the fastest mode damped with a ratio of order zeta_t."""
+    the fastest mode damped with zeta_t times its share of interface strain energy (first-order
+    modal estimate)."""
     import scipy.linalg as sla
 
     zt = 0.5
@@ -379,7 +383,10 @@ def test_interface_damping_spares_the_structural_modes():
           zeta[:3], zeta[-1])
     assert np.all(zeta[:3] < 1e-3)
     assert np.allclose(np.abs(lam[:3]), w_undamped[:3], rtol=1e-5)
-    assert 0.2 * zt < zeta[-1] <= zt * (1 + 1e-9)
+    lam_s, phi_s = m0.eig_stuck
+    share = phi_s[:, -1] @ m0.K_interface @ phi_s[:, -1] / lam_s[-1]
+    print("interface strain-energy share of the fastest mode:", share, "-> zeta_t share =", zt * share)
+    assert abs(zeta[-1] - zt * share) < 0.05 * zt * share
     assert np.array_equal(m0.C, np.zeros((n, n)))
 
 

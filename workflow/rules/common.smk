@@ -115,6 +115,12 @@ def chunk_mode_files(wildcards) -> list[str]:
     return [f"results/modes/{k}/modes.parquet" for k in keys]
 
 
+def grid_mode_files(wildcards) -> list[str]:
+    """The cached modes every point of a grid needs."""
+    keys = sorted({_mode_key(p.params) for p in POINTS[wildcards.grid]})
+    return [f"results/modes/{k}/modes.parquet" for k in keys]
+
+
 def mode_key() -> str:
     """Cache key of the default model geometry with config['modes']['n_modes'] modes."""
     return _mode_key(config["model"], config["modes"]["n_modes"])

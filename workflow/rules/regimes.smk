@@ -18,6 +18,7 @@ rule simulate_chunk:
 rule lyapunov_chunk:
     input:
         simulate="results/regimes/{grid}/chunks/{chunk}.simulate.parquet",
+        modes=chunk_mode_files,
     output:
         table="results/regimes/{grid}/chunks/{chunk}.lyapunov.parquet",
     params:
@@ -92,6 +93,7 @@ rule regime_figures:
 rule portraits:
     input:
         table="results/regimes/{grid}.parquet",
+        modes=grid_mode_files,
     output:
         figure="results/regimes/{grid}/portraits.png",
     params:
