@@ -595,7 +595,9 @@ def sync_search(run_batch: Callable, *, t_s: np.ndarray, batch: int, rtol: float
     ``ds`` from the same drive state and perturbation and returns the windowed error rates,
     the log-error histories (rows, sampled at ``t_s``) and the synchronisation decisions.
     ``zero_first``: test ``d = 0`` alone first (most beam points are not chaotic, and then
-    nothing else is needed), the ladder only if it does not synchronise.  ``scale``,
+    nothing else is needed): if it synchronises, or its windowed rate (the finite-time
+    exponent of the free pair) is within ``zero_tol``, the exponent is reported from it; the
+    ladder and the bisection run only when ``r(0) > zero_tol``.  ``scale``,
     ``runtime`` and ``n_rhs_evals`` of the result are left for the caller to fill.
     """
     t_start = time.perf_counter()
@@ -609,6 +611,18 @@ def sync_search(run_batch: Callable, *, t_s: np.ndarray, batch: int, rtol: float
     rate, log_err, synced = run_batch(ds)
     rounds.append({"d": ds.copy(), "rate": rate.copy(), "synced": synced.copy()})
     zero_log_err = log_err[0].copy()
+    if zero_first and not synced[0] and rate[0] <= zero_tol:
+        # the free pair's finite-time transverse exponent r(0) ~ lambda_1 is within the
+        # resolution: d_s <= zero_tol, reported as zero (neutral direction) without bisection
+        return LLEResult(
+            value=float(rate[0]), method="stefanski",
+            verdict=f"zero exponent (neutral direction, e.g. limit cycle or torus): windowed "
+                    f"rate at d = 0 {rate[0]:.3g} <= zero_tol = {zero_tol:.3g}, so d_s <= zero_tol",
+            chaotic=False, bracket=(0.0, float(zero_tol)), sync_error=_exp_clip(log_err),
+            sync_time=t_s, sync_d=ds, rounds=rounds, scale=scale,
+            runtime=time.perf_counter() - t_start, n_rhs_evals=n_evals,
+            extras={"omega_c": omega_c, "rate_d0": float(rate[0]), "log_sync_error": log_err,
+                    "bounded": bounded})
     if zero_first and not synced[0]:
         rate2, log_err2, synced2 = run_batch(ladder)
         rounds.append({"d": ladder.copy(), "rate": rate2.copy(), "synced": synced2.copy()})

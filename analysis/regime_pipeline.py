@@ -94,7 +94,7 @@ def simulate_points(points: Sequence[dict], numerics: dict, store_root: str, thr
                 recs[i] = rec
         return recs
 
-    recs = _cached_stage(points, store, compute, batch_size=max(2 * threads, 16), stage="simulate")
+    recs = _cached_stage(points, store, compute, batch_size=max(2 * threads, 25), stage="simulate")
     return _table(points, recs)
 
 
@@ -142,7 +142,7 @@ def _lyapunov_group(points: list[dict], sim: pd.DataFrame, numerics: dict, threa
         rk4_steps = numerics.get("steps_per_period") if integrator(numerics["method"], {}) == "rk4" else None
         res = beam_lle(prepared, starts, scales, n_periods=int(lopt.get("n_periods", 50)),
                        steps_per_period=rk4_steps,
-                       step_factor=numerics.get("step_factor", 0.5), n_threads=threads)
+                       step_factor=lopt.get("step_factor", 0.5), n_threads=threads)
         for i, est in zip(good, res):
             r = sim.loc[points[i]["point_id"]]
             period = 2.0 * np.pi / r["omega"]
@@ -183,7 +183,7 @@ def lyapunov_points(points: Sequence[dict], simulated: pd.DataFrame, numerics: d
                 recs[i] = rec
         return recs
 
-    recs = _cached_stage(points, store, compute, batch_size=max(2 * threads, 8), stage="lyapunov")
+    recs = _cached_stage(points, store, compute, batch_size=max(2 * threads, 25), stage="lyapunov")
     return _table(points, recs)
 
 

@@ -25,6 +25,15 @@ factor is carried in the recorded ``ln eps`` (so the record is the error of the 
 unbounded dynamics).  Copies flagged ``renorm_period`` are moved back to ``e0`` at every
 period end as well (the classic Benettin renormalisation).  ``ln eps`` is recorded at every
 forcing period boundary.
+
+The stick/slip state of a Jenkins element is memory (hysteresis), not a function of the
+continuous state, so a copy can stay stuck inside the band ``mu_k p < |tau| < mu_s p`` while the
+drive's element slides: a mismatch that no coupling of the continuous variables removes (the
+error settles at ``~ s'/d``) and that a rescaling would make inconsistent.  A copy within
+``10 e0`` of the drive (after any rescaling) therefore takes the drive's stick/slip state
+(:func:`_adopt_modes`): in the linear regime the two switch within the same step, so this only
+acts on persistent mismatches, moving the copy's switch by less than the time its own would
+have taken (an error of the order of the separation).
 """
 
 from __future__ import annotations
@@ -54,6 +63,25 @@ def _error(q, v, yq, yv, inv_scale):
 
 
 @njit(cache=True)
+def _adopt_modes(mode, yq, yz, ymode, S, kt, tau_k):
+    """Give a copy the drive's stick/slip state, element by element, with the copy's own slip:
+    an element made to slide in direction m gets ``z = s - m tau_k / k_t`` (traction at the
+    kinetic level), one made to stick keeps its ``z``.  Returns the number of changed elements."""
+    changed = 0
+    for j in range(mode.shape[0]):
+        if ymode[j] == mode[j]:
+            continue
+        changed += 1
+        if mode[j] != 0:
+            s = 0.0
+            for k in range(yq.shape[0]):
+                s += S[j, k] * yq[k]
+            yz[j] = s - mode[j] * tau_k[j] / kt
+        ymode[j] = mode[j]
+    return changed
+
+
+@njit(cache=True)
 def _rescale(fac, q, v, z, yq, yv, yz):
     for i in range(q.shape[0]):
         yq[i] = q[i] + fac * (yq[i] - q[i])
@@ -63,7 +91,7 @@ def _rescale(fac, q, v, z, yq, yv, yz):
 
 
 @njit(cache=True)
-def _copies_task(p, c0, c1, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, om, tau_s, tau_k, fc, fs,
+def _copies_task(p, c0, c1, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g, f0, om, tau_s, tau_k, fc, fs,
                  vs, kv, eps, damp, h, n_per, n_periods, x_start, offsets, d, renorm_period,
                  inv_scale, e0, band_lo, band_hi, div_limit, log_err):
     n = Aq.shape[0]
@@ -100,6 +128,7 @@ def _copies_task(p, c0, c1, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, om, tau_s
     for m in range(M):
         e = _error(Q[0], V[0], Q[m + 1], V[m + 1], inv_scale)
         log_err[p, c0 + m, 0] = math.log(e) if e > 0.0 else -np.inf
+    adopt_below = 10.0 * e0
     for step in range(n_periods * n_per):
         t = (step % n_per) * h
         rem = h
@@ -112,7 +141,7 @@ def _copies_task(p, c0, c1, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, om, tau_s
             for r in range(M + 1):
                 if not alive[r]:
                     continue
-                _rk4_incr(tl, rem, Q[r], V[r], Z[r], MODE[r], law, Aq, Av, Bt, gv, S, wq, kt, Cm,
+                _rk4_incr(tl, rem, Q[r], V[r], Z[r], MODE[r], law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm,
                           g, f0, om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau, QN[r],
                           VN[r], ZN[r], EN[r], SQ[r], SV[r], SZ[r], dd[r], SQ[0], SV[0], SZ[0])
                 if law == 0 and it < MAX_SWITCHES_PER_STEP * (M + 1):
@@ -139,12 +168,12 @@ def _copies_task(p, c0, c1, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, om, tau_s
                 for itr in range(EVENT_ITERATIONS):
                     hs = th * rem
                     if who > 0 and dd[who] != 0.0:
-                        _rk4_incr(tl, hs, Q[0], V[0], Z[0], MODE[0], law, Aq, Av, Bt, gv, S, wq, kt,
+                        _rk4_incr(tl, hs, Q[0], V[0], Z[0], MODE[0], law, Aq, Av, Bt, gv, S, wq, kt, ct,
                                   Cm, g, f0, om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau,
                                   QN[0], VN[0], ZN[0], EN[0], SQ[0], SV[0], SZ[0], 0.0, SQ[0],
                                   SV[0], SZ[0])
                     _rk4_incr(tl, hs, Q[who], V[who], Z[who], MODE[who], law, Aq, Av, Bt, gv, S, wq,
-                              kt, Cm, g, f0, om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau,
+                              kt, ct, Cm, g, f0, om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau,
                               QN[who], VN[who], ZN[who], EN[who], SQ[who], SV[who], SZ[who],
                               dd[who], SQ[0], SV[0], SZ[0])
                     gm = _event_g(jb, QN[who], VN[who], ZN[who], MODE[who], S, kt, tau_s)
@@ -169,7 +198,7 @@ def _copies_task(p, c0, c1, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, om, tau_s
                 for r in range(M + 1):
                     if alive[r]:
                         _rk4_incr(tl, hs, Q[r], V[r], Z[r], MODE[r], law, Aq, Av, Bt, gv, S, wq,
-                                  kt, Cm, g, f0, om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke,
+                                  kt, ct, Cm, g, f0, om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke,
                                   tau, QN[r], VN[r], ZN[r], EN[r], SQ[r], SV[r], SZ[r], dd[r],
                                   SQ[0], SV[0], SZ[0])
                 for r in range(M + 1):
@@ -207,16 +236,19 @@ def _copies_task(p, c0, c1, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, om, tau_s
             if e > 0.0 and (e > band_hi or e < band_lo or (period_end and renorm_period[c0 + m])):
                 logacc[m] += math.log(e / e0)
                 _rescale(e0 / e, Q[0], V[0], Z[0], Q[r], V[r], Z[r])
+                e = e0
+            if e <= adopt_below:
+                _adopt_modes(MODE[0], Q[r], Z[r], MODE[r], S, kt, tau_k)
 
 
 @njit(cache=True, parallel=True)
-def _run_tasks(task_p, task_c0, task_c1, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, om, tau_s,
+def _run_tasks(task_p, task_c0, task_c1, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g, f0, om, tau_s,
                tau_k, fc, fs, vs, kv, eps, damp, h, n_per, n_periods, x_start, offsets, d,
                renorm_period, inv_scale, e0, band_lo, band_hi, div_limit, log_err):
     for k in prange(task_p.shape[0]):
         p = task_p[k]
         _copies_task(p, task_c0[k], task_c1[k], law[p], Aq[p], Av[p], Bt[p], gv[p], S[p], wq[p],
-                     kt[p], Cm[p], g[p], f0[p], om[p], tau_s[p], tau_k[p], fc[p], fs[p], vs[p],
+                     kt[p], ct[p], Cm[p], g[p], f0[p], om[p], tau_s[p], tau_k[p], fc[p], fs[p], vs[p],
                      kv[p], eps[p], damp[p], h[p], n_per[p], n_periods, x_start[p], offsets[p],
                      d[p], renorm_period[p], inv_scale[p], e0, band_lo, band_hi, div_limit[p],
                      log_err)
@@ -286,8 +318,8 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
         numba.set_num_threads(threads)
     try:
         _run_tasks(np.array(tp, np.int64), np.array(t0, np.int64), np.array(t1, np.int64),
-                   k.law, k.Aq, k.Av, k.Bt, k.gv, k.S, k.wq, k.kt, k.Cm, k.g, k.f0, k.om, k.tau_s,
-                   k.tau_k, k.fc, k.fs, k.vs, k.kv, k.eps, k.damp, h, n_per, n_periods, x_start,
+                   k.law, k.Aq, k.Av, k.Bt, k.gv, k.S, k.wq, k.kt, k.ct, k.Cs, k.g, k.f0, k.om,
+                   k.tau_s, k.tau_k, k.fc, k.fs, k.vs, k.kv, k.eps, k.damp_s, h, n_per, n_periods, x_start,
                    offsets, d, renorm_period, inv_scale, e0, e0 * band[0], e0 * band[1],
                    k.divl, log_err)
     finally:

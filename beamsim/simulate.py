@@ -48,13 +48,14 @@ METHODS = {"rk4": 0, "newmark": 1, "expo": 2}
 
 
 # =========================================================================== numba kernels
-@njit(cache=True)
-def _deriv(t, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, Cm, gvec, f0, om,
+@njit(cache=True, inline="always")
+def _deriv(t, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, gvec, f0, om,
            fc, fs, vs, kv, eps, damp, dq, dv, dz, de, tau):
     n = q.shape[0]
     nq = z.shape[0]
     F = f0 * (math.cos(om * t) - 1.0)
     dD = 0.0
+    dC = 0.0
     for j in range(nq):
         s = 0.0
         sd = 0.0
@@ -72,7 +73,12 @@ def _deriv(t, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, Cm, gvec, f0, om,
             tj = smooth_traction(sd, fc[j], fs[j], vs, kv, eps)
             dz[j] = 0.0
             dD += wq[j] * tj * sd
-        tau[j] = tj
+        if ct != 0.0:
+            # interface dashpot (interface_damping), parallel to the friction element
+            tau[j] = tj + ct * sd
+            dC += wq[j] * ct * sd * sd
+        else:
+            tau[j] = tj
     pw = 0.0
     for i in range(n):
         acc = gv[i] * F
@@ -95,7 +101,7 @@ def _deriv(t, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, Cm, gvec, f0, om,
             pd += v[i] * ci
     de[0] = F * pw
     de[1] = dD
-    de[2] = pd
+    de[2] = pd + dC
 
 
 @njit(cache=True)
@@ -299,7 +305,7 @@ def _stage_state(c, q, v, z, kq, kv, kz, tq, tv, tz):
 
 
 @njit(cache=True)
-def _rk4_incr(t, hs, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, om, fc, fs, vs,
+def _rk4_incr(t, hs, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g, f0, om, fc, fs, vs,
               kv, eps, damp, kq, kvv, kz, ke, tau, qn, vn, zn, en, sq, sv, sz, dcoup, xq, xv, xz):
     """One classical RK4 step of length ``hs`` from ``(q, v, z)`` with the stick/slip state
     ``mode`` frozen: the new state goes to ``(qn, vn, zn)``, the energy-ledger increment to ``en``
@@ -316,7 +322,7 @@ def _rk4_incr(t, hs, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, o
         else:
             c = hs if st == 3 else hh
             _stage_state(c, q, v, z, kq[st - 1], kvv[st - 1], kz[st - 1], sq[st], sv[st], sz[st])
-        _deriv(t + c, sq[st], sv[st], sz[st], mode, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0,
+        _deriv(t + c, sq[st], sv[st], sz[st], mode, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g, f0,
                om, fc, fs, vs, kv, eps, damp, kq[st], kvv[st], kz[st], ke[st], tau)
         if dcoup != 0.0:
             for i in range(n):
@@ -334,7 +340,7 @@ def _rk4_incr(t, hs, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, o
         en[r] = h6 * (ke[0, r] + 2.0 * ke[1, r] + 2.0 * ke[2, r] + ke[3, r])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _first_event(q, v, z, mode, qn, vn, zn, S, kt, tau_s):
     """Earliest stick/slip switch of the Jenkins elements inside a step from ``(q, v, z)`` to
     ``(qn, vn, zn)``: the event functions ``g = |k_t (s - z)| - tau_s`` (stuck) and
@@ -411,7 +417,7 @@ def _apply_switch(j, t, q, z, mode, S, kt, tau_k, wq, ecum, stats):
         mode[j] = 0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _accept(q, v, z, ecum, qn, vn, zn, en):
     for i in range(q.shape[0]):
         q[i] = qn[i]
@@ -428,7 +434,7 @@ MAX_SWITCHES_PER_STEP = 64
 
 
 @njit(cache=True)
-def _rk4_point(p, law, Aq, Av, Bt, gv, S, wq, kt, Mm, Km, Cm, g, tip, f0, om, tau_s, tau_k,
+def _rk4_point(p, law, Aq, Av, Bt, gv, S, wq, kt, ct, Mm, Km, Cm, g, tip, f0, om, tau_s, tau_k,
                fc, fs, vs, kv, eps, damp, h, n_per, n_trans, n_rec, dense_every, div_limit, x0,
                pc_state, pc_tip, pc_energy, dense, flags, final):
     n = Aq.shape[0]
@@ -448,7 +454,7 @@ def _rk4_point(p, law, Aq, Av, Bt, gv, S, wq, kt, Mm, Km, Cm, g, tip, f0, om, ta
         rem = h
         tl = t
         for it in range(MAX_SWITCHES_PER_STEP + 1):
-            _rk4_incr(tl, rem, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g, f0, om, fc,
+            _rk4_incr(tl, rem, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g, f0, om, fc,
                       fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau, qn, vn, zn, en, sq, sv, sz,
                       0.0, sq, sv, sz)
             th = 2.0
@@ -468,7 +474,7 @@ def _rk4_point(p, law, Aq, Av, Bt, gv, S, wq, kt, Mm, Km, Cm, g, tip, f0, om, ta
                 tol = EVENT_RTOL * (abs(ga) + abs(gb))
                 side = 0
                 for itr in range(EVENT_ITERATIONS + 1):
-                    _rk4_incr(tl, th * rem, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, Cm, g,
+                    _rk4_incr(tl, th * rem, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g,
                               f0, om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau, qn, vn, zn,
                               en, sq, sv, sz, 0.0, sq, sv, sz)
                     gm = _event_g(j, qn, vn, zn, mode, S, kt, tau_s)
@@ -1166,25 +1172,43 @@ def _expo_point(p, S, wq, kt, Minv, Linv, Mm, Km, Cm, g, tip, f0, om, tau_s, tau
 
 
 @njit(cache=True, parallel=True)
-def _run_batch(method, law, Aq, Av, Bt, gv, S, wq, kt, Mm, Km, Cm, g, tip, f0, om, tau_s, tau_k,
-               fc, fs, vs, kv, eps, damp, h, n_per, n_trans, n_rec, dense_every, div_limit, x0,
-               Minv, Linv, n_sub, cache_size, pc_state, pc_tip, pc_energy, dense, flags, final):
+def _run_batch_rk4(law, Aq, Av, Bt, gv, S, wq, kt, ct, Mm, Km, Cs, g, tip, f0, om, tau_s, tau_k,
+                   fc, fs, vs, kv, eps, damp_s, h, n_per, n_trans, n_rec, dense_every, div_limit,
+                   x0, pc_state, pc_tip, pc_energy, dense, flags, final):
+    """RK4 over the points of a batch: the structural damping (``Av = -M^-1 C_struct``, ``Cs``,
+    ``damp_s``) as a matrix, the interface dashpot ``ct`` inside the interface traction.
+    (One compiled kernel per integrator, so a run compiles only what it uses.)"""
     P = f0.shape[0]
     for p in prange(P):
-        if method[p] == 2:
-            _expo_point(p, S[p], wq[p], kt[p], Minv[p], Linv[p], Mm[p], Km[p], Cm[p], g[p], tip[p], f0[p],
-                        om[p], tau_s[p], tau_k[p], damp[p], h[p], n_per[p], n_trans, n_rec,
-                        dense_every[p], div_limit[p], x0[p], n_sub, cache_size, pc_state,
-                        pc_tip, pc_energy, dense, flags, final)
-        elif method[p] == 1:
-            _newmark_point(p, S[p], wq[p], kt[p], Mm[p], Km[p], Cm[p], g[p], tip[p], f0[p],
-                           om[p], tau_s[p], tau_k[p], damp[p], h[p], n_per[p], n_trans, n_rec,
-                           dense_every[p], div_limit[p], x0[p], pc_state, pc_tip, pc_energy,
-                           dense, flags, final)
-        else:
-            _rk4_point(p, law[p], Aq[p], Av[p], Bt[p], gv[p], S[p], wq[p], kt[p], Mm[p], Km[p],
-                       Cm[p], g[p], tip[p], f0[p], om[p], tau_s[p], tau_k[p], fc[p], fs[p],
-                       vs[p], kv[p], eps[p], damp[p], h[p], n_per[p], n_trans, n_rec,
+        _rk4_point(p, law[p], Aq[p], Av[p], Bt[p], gv[p], S[p], wq[p], kt[p], ct[p], Mm[p],
+                   Km[p], Cs[p], g[p], tip[p], f0[p], om[p], tau_s[p], tau_k[p], fc[p], fs[p],
+                   vs[p], kv[p], eps[p], damp_s[p], h[p], n_per[p], n_trans, n_rec,
+                   dense_every[p], div_limit[p], x0[p], pc_state, pc_tip, pc_energy,
+                   dense, flags, final)
+
+
+@njit(cache=True, parallel=True)
+def _run_batch_expo(S, wq, kt, Mm, Km, Cm, g, tip, f0, om, tau_s, tau_k, damp, h, n_per, n_trans,
+                    n_rec, dense_every, div_limit, x0, Minv, Linv, n_sub, cache_size, pc_state,
+                    pc_tip, pc_energy, dense, flags, final):
+    """expo over the points of a batch (full damping matrix ``Cm``, flag ``damp``)."""
+    P = f0.shape[0]
+    for p in prange(P):
+        _expo_point(p, S[p], wq[p], kt[p], Minv[p], Linv[p], Mm[p], Km[p], Cm[p], g[p], tip[p],
+                    f0[p], om[p], tau_s[p], tau_k[p], damp[p], h[p], n_per[p], n_trans, n_rec,
+                    dense_every[p], div_limit[p], x0[p], n_sub, cache_size, pc_state,
+                    pc_tip, pc_energy, dense, flags, final)
+
+
+@njit(cache=True, parallel=True)
+def _run_batch_newmark(S, wq, kt, Mm, Km, Cm, g, tip, f0, om, tau_s, tau_k, damp, h, n_per,
+                       n_trans, n_rec, dense_every, div_limit, x0, pc_state, pc_tip, pc_energy,
+                       dense, flags, final):
+    """Newmark over the points of a batch (full damping matrix ``Cm``, flag ``damp``)."""
+    P = f0.shape[0]
+    for p in prange(P):
+        _newmark_point(p, S[p], wq[p], kt[p], Mm[p], Km[p], Cm[p], g[p], tip[p], f0[p],
+                       om[p], tau_s[p], tau_k[p], damp[p], h[p], n_per[p], n_trans, n_rec,
                        dense_every[p], div_limit[p], x0[p], pc_state, pc_tip, pc_energy,
                        dense, flags, final)
 
@@ -1434,6 +1458,7 @@ def stack_points(prepared: list, div_limit: float = 1e3) -> StackedPoints:
     Aq = np.empty((P, n, n)); Av = np.empty((P, n, n)); Bt = np.empty((P, n, nq))
     gv = np.empty((P, n)); S = np.empty((P, nq, n)); wq = np.empty((P, nq)); kt = np.empty(P)
     Mm = np.empty((P, n, n)); Km = np.empty((P, n, n)); Cm = np.empty((P, n, n))
+    Cs = np.empty((P, n, n)); damp_s = np.zeros(P, np.bool_); ct = np.zeros(P)
     g = np.empty((P, n)); tip = np.empty((P, 4, n))
     f0 = np.empty(P); om = np.empty(P); tau_s = np.empty((P, nq)); tau_k = np.empty((P, nq))
     fc = np.empty((P, nq)); fs = np.empty((P, nq)); vs = np.empty(P); kv = np.empty(P)
@@ -1448,7 +1473,8 @@ def stack_points(prepared: list, div_limit: float = 1e3) -> StackedPoints:
         key = id(md)
         if key not in cache:
             Minv = np.linalg.inv(md.M)
-            cache[key] = (-Minv @ md.K, -Minv @ md.C, -Minv @ (md.S.T * md.wq), Minv @ md.g,
+            Cst = md.C if md.C_struct is None else md.C_struct
+            cache[key] = (-Minv @ md.K, -Minv @ Cst, -Minv @ (md.S.T * md.wq), Minv @ md.g,
                           Minv, np.linalg.inv(np.linalg.cholesky(md.M)))
         Aq[i], Av[i], Bt[i], gv[i], Mi[i], Li[i] = cache[key]
         S[i], wq[i], kt[i] = md.S, md.wq, md.geom.k_t
@@ -1457,12 +1483,16 @@ def stack_points(prepared: list, div_limit: float = 1e3) -> StackedPoints:
         tau_s[i], tau_k[i], fc[i], fs[i] = pp.tau_s, pp.tau_k, pp.fc, pp.fs
         vs[i], kv[i], eps[i] = pp.friction.v_s, pp.friction.k_v, pp.eps_v
         damp[i] = bool(np.any(md.C != 0.0))
+        Cs[i] = md.C if md.C_struct is None else md.C_struct
+        damp_s[i] = bool(np.any(Cs[i] != 0.0))
+        ct[i] = md.c_t
         law[i] = pp.friction.code
         x0[i] = pp.x0
         qref = max(2.0 * pp.f0 * np.abs(md.static_unit_frictionless).max(),
                    np.abs(pp.x0[:n]).max(), np.abs(pp.x0[n:2 * n]).max() / pp.omega)
         divl[i] = div_limit * (qref if qref > 0 else 1.0)
-    return StackedPoints(Aq=Aq, Av=Av, Bt=Bt, gv=gv, S=S, wq=wq, kt=kt, Mm=Mm, Km=Km, Cm=Cm, g=g,
+    return StackedPoints(Aq=Aq, Av=Av, Bt=Bt, gv=gv, S=S, wq=wq, kt=kt, ct=ct, Cs=Cs, damp_s=damp_s,
+                         Mm=Mm, Km=Km, Cm=Cm, g=g,
                          tip=tip, f0=f0, om=om, tau_s=tau_s, tau_k=tau_k, fc=fc, fs=fs, vs=vs,
                          kv=kv, eps=eps, damp=damp, law=law, x0=x0, Mi=Mi, Li=Li, divl=divl)
 
@@ -1543,7 +1573,6 @@ def simulate_batch(points, *, n_transient: int = 50, n_record: int = 50,
     Mm, Km, Cm, g, tip, f0, om = k.Mm, k.Km, k.Cm, k.g, k.tip, k.f0, k.om
     tau_s, tau_k, fc, fs, vs, kv, eps = k.tau_s, k.tau_k, k.fc, k.fs, k.vs, k.kv, k.eps
     damp, law, x0, Mi, Li, divl = k.damp, k.law, k.x0, k.Mi, k.Li, k.divl
-    meth = np.full(P, METHODS[method], np.int64)
     n_dense = int(((n_trans + n_rec) * dpp) + 1) if dpp > 0 else 1
     ncol = 4 + (2 * n if dense_full else 0)
     pc_state = np.full((P, n_rec + 1, 2 * n), np.nan)
@@ -1557,9 +1586,19 @@ def simulate_batch(points, *, n_transient: int = 50, n_record: int = 50,
         numba.set_num_threads(check_int("n_threads", n_threads, 1))
     t0 = time.perf_counter()
     try:
-        _run_batch(meth, law, Aq, Av, Bt, gv, S, wq, kt, Mm, Km, Cm, g, tip, f0, om, tau_s, tau_k,
-                   fc, fs, vs, kv, eps, damp, h, n_per, n_trans, n_rec, dense_every, divl,
-                   x0, Mi, Li, n_sub, cache_size, pc_state, pc_tip, pc_energy, dense, flags, final)
+        if method == "rk4":
+            _run_batch_rk4(law, Aq, Av, Bt, gv, S, wq, kt, k.ct, Mm, Km, k.Cs, g, tip, f0, om,
+                           tau_s, tau_k, fc, fs, vs, kv, eps, k.damp_s, h, n_per, n_trans, n_rec,
+                           dense_every, divl, x0, pc_state, pc_tip, pc_energy, dense, flags,
+                           final)
+        elif method == "expo":
+            _run_batch_expo(S, wq, kt, Mm, Km, Cm, g, tip, f0, om, tau_s, tau_k, damp, h, n_per,
+                            n_trans, n_rec, dense_every, divl, x0, Mi, Li, n_sub, cache_size,
+                            pc_state, pc_tip, pc_energy, dense, flags, final)
+        else:
+            _run_batch_newmark(S, wq, kt, Mm, Km, Cm, g, tip, f0, om, tau_s, tau_k, damp, h,
+                               n_per, n_trans, n_rec, dense_every, divl, x0, pc_state, pc_tip,
+                               pc_energy, dense, flags, final)
     finally:
         if n_threads is not None:
             numba.set_num_threads(old_threads)

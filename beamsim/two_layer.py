@@ -236,6 +236,10 @@ class TwoLayerModel:
     wq: np.ndarray = field(repr=False)
     g: np.ndarray = field(repr=False)
     tip: np.ndarray = field(repr=False)
+    #: viscous interface traction per unit slip rate (the dashpot of ``interface_damping``);
+    #: ``C = C_struct + c_t S^T diag(wq) S``
+    c_t: float = 0.0
+    C_struct: np.ndarray | None = field(default=None, repr=False)
 
     # ---- sizes / names
     @property
@@ -468,10 +472,13 @@ def build_model(geom: Geometry) -> TwoLayerModel:
         C = 0.5 * (C + C.T)
     else:
         C = np.zeros((n, n))
+    C_struct = C
+    c_t = 0.0
     if geom.interface_damping > 0:
         KI = (S.T * (geom.k_t * wq)) @ S
         om_max = math.sqrt(max(sla.eigh(K + KI, M, eigvals_only=True)[-1], 0.0))
-        C = C + (2.0 * geom.interface_damping / om_max) * KI
-        C = 0.5 * (C + C.T)
+        c_t = 2.0 * geom.interface_damping * geom.k_t / om_max
+        CI = (S.T * (c_t * wq)) @ S
+        C = C_struct + 0.5 * (CI + CI.T)
     return TwoLayerModel(geom=geom, modes=modes, M=M, K=K, C=C, S=S, theta_q=theta_q, wq=wq,
-                         g=g, tip=tip)
+                         g=g, tip=tip, c_t=c_t, C_struct=C_struct)
