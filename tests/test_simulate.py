@@ -404,12 +404,15 @@ def test_energy_balance_with_interface_damping():
 
 def test_step_convergence_after_many_periods_with_interface_damping():
     """With the penalty modes damped and the switches located, the stroboscopic state after 60
-    periods of stick-slip (mu_s > mu_k) converges as the step halves, from the pipeline's step
-    factor 1.0 down (docs/model.md)."""
+    periods of stick-slip (mu_s > mu_k) is the same to < 1e-5 at step factors 1 (the pipeline's),
+    0.5, 0.25 and 0.125 (docs/model.md)."""
     base = dict(f0_rel=2.64, Omega=1.5, mu_s=0.45, mu_k=0.3, interface_damping=0.5, n_modes=1,
                 n_transient=0, n_record=60)
     runs = [simulate(step_factor=f, **base) for f in (1.0, 0.5, 0.25, 0.125)]
     size = np.abs(runs[-1].poincare_state).max()
     err = [np.abs(r.poincare_state[-1] - runs[-1].poincare_state[-1]).max() / size for r in runs[:-1]]
     print("\n60 periods, state errors vs step factor 0.125 at step factors 1, 0.5, 0.25:", err)
-    assert err[0] < 1e-4 and err[2] < err[1] < err[0]
+    # converged at every step factor to a common floor (~2e-7: event-location tolerance and
+    # round-off carried along the neutral directions of the undamped structure); without
+    # located switches and interface damping this was O(0.1) (docs/model.md)
+    assert max(err) < 1e-5
