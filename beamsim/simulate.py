@@ -74,7 +74,7 @@ def _deriv(t, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, gvec, f0, o
             dz[j] = 0.0
             dD += wq[j] * tj * sd
         if ct != 0.0:
-            # interface dashpot (interface_damping), parallel to the friction element
+            # interface dashpot (interface_damping) parallel to the whole friction element
             tau[j] = tj + ct * sd
             dC += wq[j] * ct * sd * sd
         else:

@@ -104,9 +104,12 @@ class Geometry:
     damping : modal damping ratio zeta applied to every mode of the *frictionless* structure
         (material damping of the layers, independent of the interface state).
     interface_damping : ``zeta_t``, the damping of the interface (penalty) modes, from a
-        viscous (Kelvin-Voigt) element in parallel with every Jenkins element:
-        ``T_visc = c_t s'`` with ``c_t = 2 zeta_t k_t / omega_max_stuck`` (stiffness-
-        proportional on the interface springs).  A stuck mode n gets
+        dashpot in parallel with every Jenkins element (stick and slip): ``T_visc = c_t s'``
+        with ``c_t = 2 zeta_t k_t / omega_max_stuck`` (stiffness-proportional on the
+        interface springs).  (A dashpot acting only while an element sticks -- a Kelvin-Voigt
+        element in series with the slider -- needs the slip criterion on the total traction
+        and an extra relaxation state in slip; with the dashpot simply switched off in slip
+        the stick -> slip traction jump broke step convergence: 2-4e-2 after 60 periods.)  A stuck mode n gets
         ``zeta_n ~ zeta_t (omega_n / omega_max) e_n`` (``e_n``: its share of strain energy in
         the interface springs): the structural modes essentially none (1e-6 to 3e-4 for the
         default beam at zeta_t = 0.5), the fastest mode ``zeta_t e_max`` (0.106).  It removes the undamped ringing of the penalty springs' own

@@ -33,7 +33,7 @@ from analysis.beam_lyapunov import (attractor_scale, beam_benettin, beam_lle,  #
                                     response_scale)
 from beamsim.simulate import prepare_point, simulate_batch  # noqa: E402
 
-BASE = dict(mu_s=0.45, mu_k=0.3, n_modes=1)
+BASE = dict(mu_s=0.45, mu_k=0.3, n_modes=1, interface_damping=0.5)   # the pipeline's model
 POINTS = [
     ("stuck (torus), N=1", dict(BASE, Omega=2.5, f0_rel=0.8)),
     ("period-1 slip, N=1", dict(BASE, Omega=1.5, f0_rel=2.64)),
