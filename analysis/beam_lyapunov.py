@@ -153,7 +153,6 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
     P = len(prepared)
     x_start = np.asarray(x_start, dtype=float)
     scales = np.asarray(scales, dtype=float)
-    n, nq = prepared[0].model.n, prepared[0].model.n_quad
     inv = 1.0 / scales
     offs = [initial_offset(prepared[i], scales[i], e0, seed) for i in range(P)]
     periods = [2 * math.pi / pp.omega for pp in prepared]

@@ -12,9 +12,11 @@ Integrators (numba, ``prange`` over the points of a batch; each point's arithmet
 independent of the others, so results do not depend on the number of threads):
 
 * ``method="rk4"`` -- the reference: classical fixed-step RK4 on the state
-  ``(q, v, z, W_in, D_fric, D_damp)``.  The stick/slip state of each Jenkins element is updated
-  between steps (elastic predictor / return mapping), so inside a step the right-hand side is
-  smooth.  Default step ``h = step_factor / omega_max`` (``omega_max``: largest natural
+  ``(q, v, z, W_in, D_fric, D_damp)``.  The stick/slip state of each Jenkins element is frozen
+  inside a step, so the right-hand side is smooth there; every switch is located inside the
+  step (event functions interpolated, then Illinois on the RK4 substep) and the step is split
+  at it, so switching times depend continuously on the state (4th order through stick-slip);
+  a return mapping after each step settles anything left.  Default step ``h = step_factor / omega_max`` (``omega_max``: largest natural
   frequency of the stuck system, plus the largest viscous rate of a regularised law), rounded
   so that a forcing period is an integer number of steps.
 * ``method="newmark"`` -- average-acceleration Newmark (trapezoidal, A-stable, energy
