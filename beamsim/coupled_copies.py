@@ -45,8 +45,8 @@ import numpy as np
 from numba import njit, prange
 
 from beamsim.simulate import (EVENT_ITERATIONS, EVENT_RTOL, MAX_SWITCHES_PER_STEP, _accept,
-                              _apply_switch, _diverged, _event_g, _first_event, _post_step,
-                              _rk4_incr, check_int, check_positive, period_steps, stack_points)
+                              _apply_switch, _diverged, _event_g, _first_event, _illinois,
+                              _post_step, _rk4_incr, check_int, check_positive, period_steps, stack_points)
 
 __all__ = ["run_copies"]
 
@@ -179,21 +179,7 @@ def _copies_task(p, c0, c1, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g, f0, om, t
                     gm = _event_g(jb, QN[who], VN[who], ZN[who], MODE[who], S, kt, tau_s)
                     if abs(gm) <= tol or b - a <= 1e-14:
                         break
-                    if gm > 0.0:
-                        b = th
-                        gb = gm
-                        if side == 1:
-                            ga *= 0.5
-                        side = 1
-                    else:
-                        a = th
-                        ga = gm
-                        if side == -1:
-                            gb *= 0.5
-                        side = -1
-                    th = a - ga * (b - a) / (gb - ga)
-                    if not (a < th < b):
-                        th = 0.5 * (a + b)
+                    a, ga, b, gb, th, side = _illinois(a, ga, b, gb, th, gm, side)
                 hs = th * rem
                 for r in range(M + 1):
                     if alive[r]:

@@ -160,6 +160,19 @@ def _dense(row, q, v, tip, dense, p):
             dense[p, row, 4 + n + i] = v[i]
 
 
+@njit(cache=True, inline="always")
+def _start_slip(j, s, z, mode, kt, tau_k, wq, ecum):
+    """Stuck element ``j`` (slip ``s``) starts sliding in the direction of its traction:
+    ``z`` moves so that the traction is ``tau_k``; the released elastic energy is booked as
+    friction dissipation ``ecum[1]``.  Shared by the return mapping and the located switches."""
+    tr = kt * (s - z[j])
+    m = 1 if tr > 0 else -1
+    znew = s - m * tau_k[j] / kt
+    ecum[1] += wq[j] * 0.5 * kt * ((s - z[j]) ** 2 - (s - znew) ** 2)
+    z[j] = znew
+    mode[j] = m
+
+
 @njit(cache=True)
 def _post_step(t, q, v, z, mode, law, S, wq, kt, tau_s, tau_k, eps, ecum, stats, inrec,
                update=True):
@@ -189,14 +202,8 @@ def _post_step(t, q, v, z, mode, law, S, wq, kt, tau_s, tau_k, eps, ecum, stats,
                 mode[j] = 1
                 z[j] = s
             elif mode[j] == 0:
-                tr = kt * (s - z[j])
-                if abs(tr) > tau_s[j]:
-                    m = 1 if tr > 0 else -1
-                    znew = s - m * tau_k[j] / kt
-                    # energy released by the return mapping is dissipated by the interface
-                    ecum[1] += wq[j] * 0.5 * kt * ((s - z[j]) ** 2 - (s - znew) ** 2)
-                    z[j] = znew
-                    mode[j] = m
+                if abs(kt * (s - z[j])) > tau_s[j]:
+                    _start_slip(j, s, z, mode, kt, tau_k, wq, ecum)
                 else:
                     stuck = True
             else:
@@ -397,6 +404,28 @@ EVENT_ITERATIONS = 30
 EVENT_RTOL = 1e-11
 
 
+@njit(cache=True, inline="always")
+def _illinois(a, ga, b, gb, th, gm, side):
+    """One Illinois (modified regula falsi) update of the bracket ``[a, b]`` (``g(a) <= 0 <
+    g(b)``) with the value ``gm = g(th)``; returns ``(a, ga, b, gb, th_next, side)``."""
+    if gm > 0.0:
+        b = th
+        gb = gm
+        if side == 1:
+            ga *= 0.5
+        side = 1
+    else:
+        a = th
+        ga = gm
+        if side == -1:
+            gb *= 0.5
+        side = -1
+    th = a - ga * (b - a) / (gb - ga)
+    if not (a < th < b):
+        th = 0.5 * (a + b)
+    return a, ga, b, gb, th, side
+
+
 @njit(cache=True)
 def _apply_switch(j, t, q, z, mode, S, kt, tau_k, wq, ecum, stats):
     """Switch element ``j`` at a located event: stuck -> slipping in the direction of its
@@ -406,12 +435,7 @@ def _apply_switch(j, t, q, z, mode, S, kt, tau_k, wq, ecum, stats):
         s = 0.0
         for k in range(q.shape[0]):
             s += S[j, k] * q[k]
-        tr = kt * (s - z[j])
-        m = 1 if tr > 0 else -1
-        znew = s - m * tau_k[j] / kt
-        ecum[1] += wq[j] * 0.5 * kt * ((s - z[j]) ** 2 - (s - znew) ** 2)
-        z[j] = znew
-        mode[j] = m
+        _start_slip(j, s, z, mode, kt, tau_k, wq, ecum)
         if stats[0] == 0.0:
             stats[0] = 1.0
             stats[1] = t
@@ -482,21 +506,7 @@ def _rk4_point(p, law, Aq, Av, Bt, gv, S, wq, kt, ct, Mm, Km, Cm, g, tip, f0, om
                     gm = _event_g(j, qn, vn, zn, mode, S, kt, tau_s)
                     if abs(gm) <= tol or b - a <= 1e-14 or itr == EVENT_ITERATIONS:
                         break
-                    if gm > 0.0:
-                        b = th
-                        gb = gm
-                        if side == 1:
-                            ga *= 0.5
-                        side = 1
-                    else:
-                        a = th
-                        ga = gm
-                        if side == -1:
-                            gb *= 0.5
-                        side = -1
-                    th = a - ga * (b - a) / (gb - ga)
-                    if not (a < th < b):
-                        th = 0.5 * (a + b)
+                    a, ga, b, gb, th, side = _illinois(a, ga, b, gb, th, gm, side)
                 hs = th * rem
                 _accept(q, v, z, ecum, qn, vn, zn, en)
             else:
@@ -1138,12 +1148,7 @@ def _expo_point(p, S, wq, kt, Minv, Linv, Mm, Km, Cm, g, tip, f0, om, tau_s, tau
                         s = 0.0
                         for k in range(n2):
                             s += (SVq[j, k] * zeta[k]).real
-                        tr = kt * (s - z[j])
-                        m = 1 if tr > 0 else -1
-                        znew = s - m * tau_k[j] / kt
-                        ecum[1] += wq[j] * 0.5 * kt * ((s - z[j]) ** 2 - (s - znew) ** 2)
-                        z[j] = znew
-                        mode[j] = m
+                        _start_slip(j, s, z, mode, kt, tau_k, wq, ecum)
                         if stats[0] == 0.0:
                             stats[0] = 1.0
                             stats[1] = t_ev
