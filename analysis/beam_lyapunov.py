@@ -160,9 +160,9 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
     run_kw = dict(n_periods=n_periods, e0=e0, band=band, steps_per_period=steps_per_period,
                   step_factor=step_factor, n_threads=n_threads)
 
-    # round 0 for every point at once: d = 0 (bounded, Stefanski) and the Benettin copy (one
-    # drive carries both: they are free, so each sees the other only through the step splits
-    # at its switches, a round-off-level effect)
+    # round 0 for every point at once: d = 0 (bounded, Stefanski) and the Benettin copy; every
+    # copy of a point follows the same drive trajectory (beamsim.coupled_copies), so the
+    # Stefanski candidates and the Benettin copy measure the same stretch of the attractor
     t_run = time.perf_counter()
     nc = 2 if with_benettin else 1
     off0 = np.stack([np.stack([o] * nc) for o in offs])

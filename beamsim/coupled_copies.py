@@ -10,9 +10,14 @@ stick/slip state, started from a full restart state (``SimResult.final_state``),
 on every continuous state variable (``q``, ``v`` and ``z``): ``d_m = 0`` is a free copy
 (two-trajectory / Benettin estimate), ``d_m > 0`` is the one-way coupling of the Stefanski
 synchronisation method.  All of them use the RK4 reference scheme of
-:mod:`beamsim.simulate` with the same step; the coupling enters every RK4 stage with the
-drive's stage state, so the coupled pair is integrated as one system.  Each copy's Jenkins
-elements are return-mapped after every step exactly as the drive's.
+:mod:`beamsim.simulate` with the same step.  The drive is stepped exactly as the reference
+run steps it (split only at its own stick/slip switches), so its trajectory does not depend on
+the copies: every copy of a point, in whatever task or batch, follows the same drive.  A copy
+follows the drive's substeps and splits them further at its own switches; a coupled copy
+integrates the drive's substep alongside (from the drive's state at the substep start) and the
+coupling enters every RK4 stage with the drive's stage state, so the coupled pair is
+integrated as one system.  Each copy's Jenkins elements are return-mapped after every step
+exactly as the drive's.
 
 The scaled error of copy ``m`` is the RMS over the ``2 n`` components of ``(q, v)``:
 
@@ -44,9 +49,9 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from beamsim.simulate import (EVENT_ITERATIONS, EVENT_RTOL, MAX_SWITCHES_PER_STEP, _accept,
-                              _apply_switch, _diverged, _event_g, _first_event, _illinois,
-                              _post_step, _rk4_incr, check_int, check_positive, period_steps, stack_points)
+from beamsim.simulate import (MAX_SWITCHES_PER_STEP, _accept, _diverged, _first_event,
+                              _located_step, _post_step, _rk4_incr, check_int, check_positive,
+                              period_steps, stack_points)
 
 __all__ = ["run_copies"]
 
@@ -63,20 +68,26 @@ def _error(q, v, yq, yv, inv_scale):
 
 
 @njit(cache=True)
-def _adopt_modes(mode, yq, yz, ymode, S, kt, tau_k):
-    """Give a copy the drive's stick/slip state, element by element, with the copy's own slip:
-    an element made to slide in direction m gets ``z = s - m tau_k / k_t`` (traction at the
-    kinetic level), one made to stick keeps its ``z``.  Returns the number of changed elements."""
+def _adopt_modes(q, z, mode, yq, yz, ymode, S):
+    """Give a copy the drive's stick/slip state, element by element, together with the drive's
+    elastic strain of that element: ``y_z = s_y - (s_x - z_x)``, so the element's traction
+    equals the drive's (for a sliding drive element that is the kinetic traction).  Without
+    the strain a copy that broke away (``mu_s > mu_k``: ``z`` jumps by ``(mu_s - mu_k) p / k_t``)
+    while the drive did not would keep a traction difference of ``(mu_s - mu_k) p`` when made
+    to stick again: a finite jump of the separation that the linearised dynamics do not have.
+    Returns the number of changed elements."""
     changed = 0
+    n = q.shape[0]
     for j in range(mode.shape[0]):
         if ymode[j] == mode[j]:
             continue
         changed += 1
-        if mode[j] != 0:
-            s = 0.0
-            for k in range(yq.shape[0]):
-                s += S[j, k] * yq[k]
-            yz[j] = s - mode[j] * tau_k[j] / kt
+        sx = 0.0
+        sy = 0.0
+        for k in range(n):
+            sx += S[j, k] * q[k]
+            sy += S[j, k] * yq[k]
+        yz[j] = sy - (sx - z[j])
         ymode[j] = mode[j]
     return changed
 
@@ -129,72 +140,72 @@ def _copies_task(p, c0, c1, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g, f0, om, t
         e = _error(Q[0], V[0], Q[m + 1], V[m + 1], inv_scale)
         log_err[p, c0 + m, 0] = math.log(e) if e > 0.0 else -np.inf
     adopt_below = 10.0 * e0
+    # the drive's substeps of the current step (split at its own switches only)
+    ns = MAX_SWITCHES_PER_STEP + 1
+    seg_t = np.empty(ns + 1); seg_q = np.empty((ns, n)); seg_v = np.empty((ns, n))
+    seg_z = np.empty((ns, nq)); seg_m = np.zeros((ns, nq), np.int64)
+    xq = np.empty(n); xv = np.empty(n); xz = np.empty(nq)
     for step in range(n_periods * n_per):
         t = (step % n_per) * h
-        rem = h
-        tl = t
-        for it in range(MAX_SWITCHES_PER_STEP * (M + 1) + 1):
-            # all trajectories over the remaining step; the earliest switch of any splits it
-            th = 2.0
-            jb = 0
-            who = 0
-            for r in range(M + 1):
-                if not alive[r]:
+        # the drive, exactly as the reference run steps it (its trajectory does not depend on
+        # the copies); fast path: one RK4 step, redone with located switches only if it has one
+        for i in range(n):
+            seg_q[0, i] = Q[0, i]
+            seg_v[0, i] = V[0, i]
+        for j in range(nq):
+            seg_z[0, j] = Z[0, j]
+            seg_m[0, j] = MODE[0, j]
+        _rk4_incr(t, h, Q[0], V[0], Z[0], MODE[0], law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g, f0,
+                  om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau, QN[0], VN[0], ZN[0], EN[0],
+                  SQ[0], SV[0], SZ[0], 0.0, SQ[0], SV[0], SZ[0])
+        th = 2.0
+        if law == 0:
+            th, _ = _first_event(Q[0], V[0], Z[0], MODE[0], QN[0], VN[0], ZN[0], S, kt, tau_s)
+        if th >= 1.0:
+            _accept(Q[0], V[0], Z[0], ecum, QN[0], VN[0], ZN[0], EN[0])
+            nseg = 1
+            seg_t[0] = t
+            seg_t[1] = t + h
+        else:
+            _, nseg = _located_step(t, h, h, Q[0], V[0], Z[0], MODE[0], law, Aq, Av, Bt, gv, S,
+                                    wq, kt, ct, Cm, g, f0, om, tau_s, tau_k, fc, fs, vs, kv, eps,
+                                    damp, ecum, stats, kq, kvv, kz, ke, tau, QN[0], VN[0], ZN[0],
+                                    EN[0], SQ[0], SV[0], SZ[0], 0.0, xq, xv, xz, MODE[0], QN[0],
+                                    VN[0], ZN[0], SQ[0], SV[0], SZ[0], seg_t, seg_q, seg_v,
+                                    seg_z, seg_m, True)
+        # every copy follows the drive segment by segment (splitting further at its own
+        # switches); a coupled copy integrates the drive's segment alongside for the stages
+        for r in range(1, M + 1):
+            if not alive[r]:
+                continue
+            if nseg == 1:
+                # fast path: the drive's full step and its stage states (SQ[0]) are at hand
+                _rk4_incr(t, h, Q[r], V[r], Z[r], MODE[r], law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm,
+                          g, f0, om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau, QN[r], VN[r],
+                          ZN[r], EN[r], SQ[r], SV[r], SZ[r], dd[r], SQ[0], SV[0], SZ[0])
+                th = 2.0
+                if law == 0:
+                    th, _ = _first_event(Q[r], V[r], Z[r], MODE[r], QN[r], VN[r], ZN[r], S, kt,
+                                         tau_s)
+                if th >= 1.0:
+                    _accept(Q[r], V[r], Z[r], ecum, QN[r], VN[r], ZN[r], EN[r])
                     continue
-                _rk4_incr(tl, rem, Q[r], V[r], Z[r], MODE[r], law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm,
-                          g, f0, om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau, QN[r],
-                          VN[r], ZN[r], EN[r], SQ[r], SV[r], SZ[r], dd[r], SQ[0], SV[0], SZ[0])
-                if law == 0 and it < MAX_SWITCHES_PER_STEP * (M + 1):
-                    thr, jr = _first_event(Q[r], V[r], Z[r], MODE[r], QN[r], VN[r], ZN[r], S,
-                                           kt, tau_s)
-                    if thr < th:
-                        th = thr
-                        jb = jr
-                        who = r
-            if th >= 1.0:
-                for r in range(M + 1):
-                    if alive[r]:
-                        _accept(Q[r], V[r], Z[r], ecum, QN[r], VN[r], ZN[r], EN[r])
-                break
-            hs = 0.0
-            if th > 0.0:
-                # refine the crossing on trajectory `who` (Illinois; as in beamsim.simulate)
-                a = 0.0
-                ga = _event_g(jb, Q[who], V[who], Z[who], MODE[who], S, kt, tau_s)
-                b = 1.0
-                gb = _event_g(jb, QN[who], VN[who], ZN[who], MODE[who], S, kt, tau_s)
-                tol = EVENT_RTOL * (abs(ga) + abs(gb))
-                side = 0
-                for itr in range(EVENT_ITERATIONS):
-                    hs = th * rem
-                    if who > 0 and dd[who] != 0.0:
-                        _rk4_incr(tl, hs, Q[0], V[0], Z[0], MODE[0], law, Aq, Av, Bt, gv, S, wq, kt, ct,
-                                  Cm, g, f0, om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau,
-                                  QN[0], VN[0], ZN[0], EN[0], SQ[0], SV[0], SZ[0], 0.0, SQ[0],
-                                  SV[0], SZ[0])
-                    _rk4_incr(tl, hs, Q[who], V[who], Z[who], MODE[who], law, Aq, Av, Bt, gv, S, wq,
-                              kt, ct, Cm, g, f0, om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau,
-                              QN[who], VN[who], ZN[who], EN[who], SQ[who], SV[who], SZ[who],
-                              dd[who], SQ[0], SV[0], SZ[0])
-                    gm = _event_g(jb, QN[who], VN[who], ZN[who], MODE[who], S, kt, tau_s)
-                    if abs(gm) <= tol or b - a <= 1e-14:
-                        break
-                    a, ga, b, gb, th, side = _illinois(a, ga, b, gb, th, gm, side)
-                hs = th * rem
-                for r in range(M + 1):
-                    if alive[r]:
-                        _rk4_incr(tl, hs, Q[r], V[r], Z[r], MODE[r], law, Aq, Av, Bt, gv, S, wq,
-                                  kt, ct, Cm, g, f0, om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke,
-                                  tau, QN[r], VN[r], ZN[r], EN[r], SQ[r], SV[r], SZ[r], dd[r],
-                                  SQ[0], SV[0], SZ[0])
-                for r in range(M + 1):
-                    if alive[r]:
-                        _accept(Q[r], V[r], Z[r], ecum, QN[r], VN[r], ZN[r], EN[r])
-            tl += hs
-            rem -= hs
-            _apply_switch(jb, tl, Q[who], Z[who], MODE[who], S, kt, tau_k, wq, ecum, stats)
-            if rem <= 1e-12 * h:
-                break
+            for k in range(nseg):
+                ts = seg_t[k]
+                hk = seg_t[k + 1] - ts
+                if hk <= 1e-12 * h:
+                    continue
+                if dd[r] != 0.0:
+                    for i in range(n):
+                        xq[i] = seg_q[k, i]
+                        xv[i] = seg_v[k, i]
+                    for j in range(nq):
+                        xz[j] = seg_z[k, j]
+                _located_step(ts, hk, h, Q[r], V[r], Z[r], MODE[r], law, Aq, Av, Bt, gv, S, wq, kt,
+                              ct, Cm, g, f0, om, tau_s, tau_k, fc, fs, vs, kv, eps, damp, ecum,
+                              stats, kq, kvv, kz, ke, tau, QN[r], VN[r], ZN[r], EN[r], SQ[r],
+                              SV[r], SZ[r], dd[r], xq, xv, xz, seg_m[k], QN[0], VN[0], ZN[0],
+                              SQ[0], SV[0], SZ[0], seg_t, seg_q, seg_v, seg_z, seg_m, False)
         tn = (step + 1) * h
         for r in range(M + 1):
             if alive[r]:
@@ -224,7 +235,7 @@ def _copies_task(p, c0, c1, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g, f0, om, t
                 _rescale(e0 / e, Q[0], V[0], Z[0], Q[r], V[r], Z[r])
                 e = e0
             if e <= adopt_below:
-                _adopt_modes(MODE[0], Q[r], Z[r], MODE[r], S, kt, tau_k)
+                _adopt_modes(Q[0], Z[0], MODE[0], Q[r], Z[r], MODE[r], S)
 
 
 @njit(cache=True, parallel=True)
@@ -258,11 +269,10 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
     inv_scale : ``(P, 2 n)`` inverse attractor size per component of ``(q, v)``.
     e0, band : rescaling target and band ``[e0 band[0], e0 band[1]]`` of the scaled error.
     renorm_period : ``(P, M)`` bool, copies also rescaled to ``e0`` at every period end.
-    split : tasks per point, each integrating its own copy of the drive with its share of the
-        copies.  Default ``M``: every copy with its own drive, so a copy's record does not
-        depend on which other copies run (the drive's steps are split at the switching
-        instants of the copies it carries, which changes it at round-off level); results do
-        not depend on the number of threads.
+    split : tasks per point (for threads), each integrating the drive with its share of the
+        copies.  The drive does not depend on the copies, so results do not depend on
+        ``split``, on which other copies run, or on the number of threads (bitwise).  Default:
+        enough tasks to occupy the threads (``ceil(threads / P)``).
     """
     P = len(prepared)
     x_start = np.ascontiguousarray(x_start, dtype=float)
@@ -292,7 +302,8 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
         n_per[i] = period_steps(pp, "rk4", steps_per_period, step_factor)
         h[i] = 2 * math.pi / pp.omega / n_per[i]
     threads = numba.get_num_threads() if n_threads is None else check_int("n_threads", n_threads, 1)
-    split = M if split is None else max(1, min(M, int(split)))
+    split = -(-threads // P) if split is None else int(split)
+    split = max(1, min(M, split))
     tp, t0, t1 = [], [], []
     for p in range(P):
         for chunk in np.array_split(np.arange(M), split):

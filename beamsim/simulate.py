@@ -460,6 +460,94 @@ MAX_SWITCHES_PER_STEP = 64
 
 
 @njit(cache=True)
+def _located_step(t, hs, h_tol, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g, f0, om,
+                  tau_s, tau_k, fc, fs, vs, kv, eps, damp, ecum, stats, kq, kvv, kz, ke, tau, qn,
+                  vn, zn, en, sq, sv, sz, dcoup, xq, xv, xz, xmode, xqn, xvn, xzn, xsq, xsv, xsz,
+                  seg_t, seg_q, seg_v, seg_z, seg_m, record):
+    """Advance ``(q, v, z, mode)`` from ``t`` over ``hs`` with RK4, splitting the step at every
+    stick/slip switch (law 0): the earliest crossing of the linearly interpolated event
+    functions, refined on the RK4 substep by Illinois iterations to ``EVENT_RTOL``, so that a
+    switching time does not depend on how the step happens to be split.  Returns the number
+    of switches and of substeps.
+
+    ``record``: store the start time and state ``(q, v, z, mode)`` of every substep in
+    ``seg_*`` (``seg_t[k]``, with ``seg_t[n_segments] = t + hs``); the drive of
+    :mod:`beamsim.coupled_copies` records its segments so that its copies can follow it.
+
+    ``dcoup > 0``: a coupled copy of a drive that starts at ``(xq, xv, xz)`` and keeps the
+    stick/slip state ``xmode`` over the whole interval (one segment of the drive): every
+    substep integrates that drive too (its local state is overwritten: a scratch copy) and adds
+    ``dcoup (x - y)`` to every stage of the copy.  Substeps shorter than ``1e-12 h_tol`` end
+    the step.  Returns ``(switches, substeps)``."""
+    rem = hs
+    tl = t
+    n_switch = 0
+    nseg = 0
+    for it in range(MAX_SWITCHES_PER_STEP + 1):
+        if record:
+            seg_t[nseg] = tl
+            seg_q[nseg] = q
+            seg_v[nseg] = v
+            seg_z[nseg] = z
+            seg_m[nseg] = mode
+        nseg += 1
+        if dcoup != 0.0:
+            # the drive's substep (local state x), whose stages enter the coupling
+            _rk4_incr(tl, rem, xq, xv, xz, xmode, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g, f0,
+                      om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau, xqn, xvn, xzn, en,
+                      xsq, xsv, xsz, 0.0, xsq, xsv, xsz)
+        _rk4_incr(tl, rem, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g, f0, om,
+                  fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau, qn, vn, zn, en, sq, sv, sz,
+                  dcoup, xsq, xsv, xsz)
+        th = 2.0
+        j = -1
+        if law == 0 and it < MAX_SWITCHES_PER_STEP:
+            th, j = _first_event(q, v, z, mode, qn, vn, zn, S, kt, tau_s)
+        if th >= 1.0:
+            _accept(q, v, z, ecum, qn, vn, zn, en)
+            break
+        if th > 0.0:
+            a = 0.0
+            ga = _event_g(j, q, v, z, mode, S, kt, tau_s)
+            b = 1.0
+            gb = _event_g(j, qn, vn, zn, mode, S, kt, tau_s)
+            tol = EVENT_RTOL * (abs(ga) + abs(gb))
+            side = 0
+            for itr in range(EVENT_ITERATIONS + 1):
+                if dcoup != 0.0:
+                    # the drive's substep (local state x), whose stages enter the coupling
+                    _rk4_incr(tl, th * rem, xq, xv, xz, xmode, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g, f0,
+                              om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau, xqn, xvn, xzn, en,
+                              xsq, xsv, xsz, 0.0, xsq, xsv, xsz)
+                _rk4_incr(tl, th * rem, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g, f0, om,
+                          fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau, qn, vn, zn, en, sq, sv, sz,
+                          dcoup, xsq, xsv, xsz)
+                gm = _event_g(j, qn, vn, zn, mode, S, kt, tau_s)
+                if abs(gm) <= tol or b - a <= 1e-14 or itr == EVENT_ITERATIONS:
+                    break
+                a, ga, b, gb, th, side = _illinois(a, ga, b, gb, th, gm, side)
+            hs_acc = th * rem
+            _accept(q, v, z, ecum, qn, vn, zn, en)
+            if dcoup != 0.0:
+                for i in range(q.shape[0]):
+                    xq[i] = xqn[i]
+                    xv[i] = xvn[i]
+                for i in range(z.shape[0]):
+                    xz[i] = xzn[i]
+        else:
+            hs_acc = 0.0
+        tl += hs_acc
+        rem -= hs_acc
+        _apply_switch(j, tl, q, z, mode, S, kt, tau_k, wq, ecum, stats)
+        n_switch += 1
+        if rem <= 1e-12 * h_tol:
+            break
+    if record:
+        seg_t[nseg] = t + hs
+    return n_switch, nseg
+
+
+@njit(cache=True)
 def _rk4_point(p, law, Aq, Av, Bt, gv, S, wq, kt, ct, Mm, Km, Cm, g, tip, f0, om, tau_s, tau_k,
                fc, fs, vs, kv, eps, damp, h, n_per, n_trans, n_rec, dense_every, div_limit, x0,
                pc_state, pc_tip, pc_energy, dense, flags, final):
@@ -472,51 +560,28 @@ def _rk4_point(p, law, Aq, Av, Bt, gv, S, wq, kt, ct, Mm, Km, Cm, g, tip, f0, om
     sq = np.zeros((4, n)); sv = np.zeros((4, n)); sz = np.zeros((4, nq))
     qn = np.empty(n); vn = np.empty(n); zn = np.empty(nq); en = np.empty(3)
     tau = np.empty(nq)
+    seg_t = np.empty(1); seg_q = np.empty((1, n)); seg_v = np.empty((1, n))
+    seg_z = np.empty((1, nq)); seg_m = np.empty((1, nq), np.int64)
     n_total = (n_trans + n_rec) * n_per
     n_switch = 0
     for step in range(n_total):
         t = step * h
-        # stick/slip switches located inside the step (law 0): split the step at each
-        rem = h
-        tl = t
-        for it in range(MAX_SWITCHES_PER_STEP + 1):
-            _rk4_incr(tl, rem, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g, f0, om, fc,
-                      fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau, qn, vn, zn, en, sq, sv, sz,
-                      0.0, sq, sv, sz)
-            th = 2.0
-            j = -1
-            if law == 0 and it < MAX_SWITCHES_PER_STEP:
-                th, j = _first_event(q, v, z, mode, qn, vn, zn, S, kt, tau_s)
-            if th >= 1.0:
-                _accept(q, v, z, ecum, qn, vn, zn, en)
-                break
-            if th > 0.0:
-                # refine the crossing of element j on the RK4 substep (Illinois), so that the
-                # switching time does not depend on how the step happens to be split
-                a = 0.0
-                ga = _event_g(j, q, v, z, mode, S, kt, tau_s)
-                b = 1.0
-                gb = _event_g(j, qn, vn, zn, mode, S, kt, tau_s)
-                tol = EVENT_RTOL * (abs(ga) + abs(gb))
-                side = 0
-                for itr in range(EVENT_ITERATIONS + 1):
-                    _rk4_incr(tl, th * rem, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g,
-                              f0, om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau, qn, vn, zn,
-                              en, sq, sv, sz, 0.0, sq, sv, sz)
-                    gm = _event_g(j, qn, vn, zn, mode, S, kt, tau_s)
-                    if abs(gm) <= tol or b - a <= 1e-14 or itr == EVENT_ITERATIONS:
-                        break
-                    a, ga, b, gb, th, side = _illinois(a, ga, b, gb, th, gm, side)
-                hs = th * rem
-                _accept(q, v, z, ecum, qn, vn, zn, en)
-            else:
-                hs = 0.0
-            tl += hs
-            rem -= hs
-            _apply_switch(j, tl, q, z, mode, S, kt, tau_k, wq, ecum, stats)
-            n_switch += 1
-            if rem <= 1e-12 * h:
-                break
+        # fast path: one RK4 step; only a step with a switch is redone with located switches
+        _rk4_incr(t, h, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g, f0, om, fc, fs,
+                  vs, kv, eps, damp, kq, kvv, kz, ke, tau, qn, vn, zn, en, sq, sv, sz, 0.0, sq,
+                  sv, sz)
+        th = 2.0
+        if law == 0:
+            th, _ = _first_event(q, v, z, mode, qn, vn, zn, S, kt, tau_s)
+        if th >= 1.0:
+            _accept(q, v, z, ecum, qn, vn, zn, en)
+        else:
+            nsw, _ = _located_step(t, h, h, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm,
+                                   g, f0, om, tau_s, tau_k, fc, fs, vs, kv, eps, damp, ecum, stats,
+                                   kq, kvv, kz, ke, tau, qn, vn, zn, en, sq, sv, sz, 0.0, q, v, z,
+                                   mode, qn, vn, zn, sq, sv, sz, seg_t, seg_q, seg_v, seg_z, seg_m,
+                                   False)
+            n_switch += nsw
         k = step + 1
         tn = k * h
         inrec = k > n_trans * n_per

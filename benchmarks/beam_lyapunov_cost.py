@@ -1,7 +1,7 @@
 """Cost of one lambda_1 per beam grid point: Stefanski vs Benettin (and the reference run).
 
-For a few points of the default grid's region (one-mode model, mu_s / mu_k = 1.5, and one
-three-mode point) the reference trajectory is integrated (``n_transient + n_record``
+For a few points of the default grid's region (one-mode model, mu_s / mu_k = 1.5) and two
+three-mode points (weakly and strongly chaotic) the reference trajectory is integrated (``n_transient + n_record``
 periods, pipeline numerics), then from its final state, each timed separately after a
 warm-up call that compiles the kernels:
 
@@ -39,7 +39,8 @@ POINTS = [
     ("period-1 slip, N=1", dict(BASE, Omega=1.5, f0_rel=2.64)),
     ("period-m slip, N=1", dict(BASE, Omega=5.0, f0_rel=1.05)),
     ("quasi-periodic slip, N=1", dict(BASE, Omega=4.0, f0_rel=1.3)),
-    ("period-1 slip, N=3", dict(BASE, n_modes=3, Omega=1.5, f0_rel=2.64)),
+    ("weakly chaotic, N=3", dict(BASE, n_modes=3, Omega=1.5, f0_rel=2.64)),
+    ("chaotic, N=3, mu_s/mu_k=3", dict(BASE, n_modes=3, mu_s=0.9, Omega=1.5, f0_rel=2.2)),
 ]
 
 
