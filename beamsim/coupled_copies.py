@@ -144,7 +144,11 @@ def _copies_task(p, c0, c1, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g, f0, om, t
     ns = MAX_SWITCHES_PER_STEP + 1
     seg_t = np.empty(ns + 1); seg_q = np.empty((ns, n)); seg_v = np.empty((ns, n))
     seg_z = np.empty((ns, nq)); seg_m = np.zeros((ns, nq), np.int64)
+    # the drive's local state and stages inside a copy's located step (scratch; the drive's own
+    # stage states SQ[0] must survive for the fast path of the next copy)
     xq = np.empty(n); xv = np.empty(n); xz = np.empty(nq)
+    xqn = np.empty(n); xvn = np.empty(n); xzn = np.empty(nq)
+    xsq = np.zeros((4, n)); xsv = np.zeros((4, n)); xsz = np.zeros((4, nq))
     for step in range(n_periods * n_per):
         t = (step % n_per) * h
         # the drive, exactly as the reference run steps it (its trajectory does not depend on
@@ -204,8 +208,8 @@ def _copies_task(p, c0, c1, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g, f0, om, t
                 _located_step(ts, hk, h, Q[r], V[r], Z[r], MODE[r], law, Aq, Av, Bt, gv, S, wq, kt,
                               ct, Cm, g, f0, om, tau_s, tau_k, fc, fs, vs, kv, eps, damp, ecum,
                               stats, kq, kvv, kz, ke, tau, QN[r], VN[r], ZN[r], EN[r], SQ[r],
-                              SV[r], SZ[r], dd[r], xq, xv, xz, seg_m[k], QN[0], VN[0], ZN[0],
-                              SQ[0], SV[0], SZ[0], seg_t, seg_q, seg_v, seg_z, seg_m, False)
+                              SV[r], SZ[r], dd[r], xq, xv, xz, seg_m[k], xqn, xvn, xzn, xsq,
+                              xsv, xsz, seg_t, seg_q, seg_v, seg_z, seg_m, False)
         tn = (step + 1) * h
         for r in range(M + 1):
             if alive[r]:

@@ -104,6 +104,14 @@ def test_results_do_not_depend_on_threads_or_other_copies(settled):
     c = run_copies(*args, off[:, 1:2], d[:, 1:2], 1 / scales[:1], n_periods=3, e0=1e-6)
     assert np.array_equal(a, b)
     assert np.array_equal(a[:, 1:2], c)
+    # all copies in one task, far enough apart (1e-3) that they switch in other steps than the
+    # drive: a coupled copy after other coupled copies (which split their steps at their own
+    # switches) must see the same drive as alone (this caught a scratch-array clash)
+    far = np.stack([initial_offset(pp, scales[0], 1e-3, seed=s) for s in range(3)])[None]
+    dc = np.array([[1e-3, 2e-3, 3e-3]])
+    e = run_copies(*args, far, dc, 1 / scales[:1], n_periods=3, e0=1e-3, split=1)
+    f = run_copies(*args, far[:, 2:3], dc[:, 2:3], 1 / scales[:1], n_periods=3, e0=1e-3)
+    assert np.array_equal(e[:, 2:3], f)
 
 
 @pytest.mark.parametrize("which", [0, 1])
