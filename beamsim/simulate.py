@@ -515,13 +515,12 @@ def _located_step(t, hs, h_tol, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, c
             side = 0
             for itr in range(EVENT_ITERATIONS + 1):
                 if dcoup != 0.0:
-                    # the drive's substep (local state x), whose stages enter the coupling
-                    _rk4_incr(tl, th * rem, xq, xv, xz, xmode, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g, f0,
-                              om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau, xqn, xvn, xzn, en,
-                              xsq, xsv, xsz, 0.0, xsq, xsv, xsz)
-                _rk4_incr(tl, th * rem, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g, f0, om,
-                          fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau, qn, vn, zn, en, sq, sv, sz,
-                          dcoup, xsq, xsv, xsz)
+                    _rk4_incr(tl, th * rem, xq, xv, xz, xmode, law, Aq, Av, Bt, gv, S, wq, kt, ct,
+                              Cm, g, f0, om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau, xqn,
+                              xvn, xzn, en, xsq, xsv, xsz, 0.0, xsq, xsv, xsz)
+                _rk4_incr(tl, th * rem, q, v, z, mode, law, Aq, Av, Bt, gv, S, wq, kt, ct, Cm, g,
+                          f0, om, fc, fs, vs, kv, eps, damp, kq, kvv, kz, ke, tau, qn, vn, zn, en,
+                          sq, sv, sz, dcoup, xsq, xsv, xsz)
                 gm = _event_g(j, qn, vn, zn, mode, S, kt, tau_s)
                 if abs(gm) <= tol or b - a <= 1e-14 or itr == EVENT_ITERATIONS:
                     break
