@@ -167,7 +167,7 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
     nc = 2 if with_benettin else 1
     off0 = np.stack([np.stack([o] * nc) for o in offs])
     le0 = run_copies(prepared, x_start, off0, np.zeros((P, nc)), inv,
-                     renorm_period=np.tile([False, True][:nc], (P, 1)), split=1, **run_kw)
+                     renorm_period=np.tile([False, True][:nc], (P, 1)), **run_kw)
     t_round0 = time.perf_counter() - t_run
 
     out = []

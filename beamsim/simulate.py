@@ -1150,18 +1150,9 @@ def _expo_point(p, S, wq, kt, Minv, Linv, Mm, Km, Cm, g, tip, f0, om, tau_s, tau
                                     mid = 0.5 * (a + b)
                             _zeta_at(mid, lam, zeta0, beta, gam, f0, om, t0, ztmp, nh)
                             fm = _cond(j, ztmp, SVq, SVv, z, mode, kt, tau_s, nh, fac)
-                            if fm > 0.0:
-                                b = mid
-                                fb = fm
-                                if side == 1:
-                                    fa *= 0.5
-                                side = 1
-                            else:
-                                a = mid
-                                fa = fm
-                                if side == -1:
-                                    fb *= 0.5
-                                side = -1
+                            # bracket update shared with RK4's event refinement (its next
+                            # point is not used: the rule above adds the bisection safeguard)
+                            a, fa, b, fb, _, side = _illinois(a, fa, b, fb, mid, fm, side)
                         if b < best:
                             best = b
                     ev_tau = best
