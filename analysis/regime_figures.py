@@ -124,43 +124,75 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
     plt.close(fig)
 
 
-def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: int = 130) -> None:
-    """Largest Lyapunov exponent per forcing period (Stefanski estimate), map or curve."""
+#: the lambda_1 maps' colour range covers this quantile of |lambda_1 T|; larger values are
+#: drawn in the end colours and written into their cells
+LLE_RANGE_QUANTILE = 0.95
+
+
+def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: int = 130,
+             resolution: float = 0.0) -> None:
+    """Largest Lyapunov exponent per forcing period, map (2-D grid) or curve (1-D grid).
+
+    2-D: two panels on one colour scale, the Stefanski estimate (the classifier's input) and
+    the Benettin cross-check, so that points where they disagree (Stefanski's threshold is an
+    upper bound at grazing breakaways, docs/lyapunov.md) are seen at a glance.  The scale is
+    symmetric about 0 and covers the :data:`LLE_RANGE_QUANTILE` quantile of ``|lambda_1 T|``
+    (a few outliers would otherwise wash out the map), at least ``resolution`` (the
+    ``lambda_1 T`` below which the estimators call the exponent zero,
+    :func:`analysis.regime_pipeline.lle_resolution`); cells beyond it take the end colours and
+    carry their value as text."""
     axes = list(grid["axes"])
-    per_period = table["lle_stefanski"] * 2.0 * np.pi / table["omega"]
+    period = 2.0 * np.pi / table["omega"]
     if len(axes) == 2:
         xa, ya = axes
         xs, ys = np.sort(table[xa].unique()), np.sort(table[ya].unique())
-        z = np.full((ys.size, xs.size), np.nan)
-        for (_, row), v in zip(table.iterrows(), per_period):
-            z[np.searchsorted(ys, row[ya]), np.searchsorted(xs, row[xa])] = v
-        fig, ax = plt.subplots(figsize=(8, 6), constrained_layout=True)
-        finite = z[np.isfinite(z)]
-        lim = max(np.abs(finite).max(), 1e-6) if finite.size else 1.0
-        mesh = ax.pcolormesh(_edges(xs, _is_log(grid, xa)), _edges(ys, _is_log(grid, ya)), z,
-                             cmap="RdBu_r", norm=TwoSlopeNorm(0.0, -lim, lim))
-        fig.colorbar(mesh, ax=ax, label=r"$\lambda_1 T$ (per forcing period; > 0: chaos)")
-        ax.text(0.01, -0.13, "Stefanski synchronisation estimate; blank: not determined (diverged "
-                "or no synchronisation up to the RK4 limit)", transform=ax.transAxes, fontsize=7)
-        for name, setter in ((xa, ax.set_xscale), (ya, ax.set_yscale)):
-            if _is_log(grid, name):
-                setter("log")
-        ax.set_xlabel(_axis_label(xa))
-        ax.set_ylabel(_axis_label(ya))
+        cols = [(c, name) for c, name in (("lle_stefanski", "Stefanski synchronisation"),
+                                          ("lle_benettin", "Benettin (two trajectories)"))
+                if c in table.columns]
+        grids = []
+        for col, _ in cols:
+            z = np.full((ys.size, xs.size), np.nan)
+            for (_, row), v in zip(table.iterrows(), table[col] * period):
+                z[np.searchsorted(ys, row[ya]), np.searchsorted(xs, row[xa])] = v
+            grids.append(z)
+        finite = np.abs(np.concatenate([z[np.isfinite(z)] for z in grids]))
+        lim = max(float(np.quantile(finite, LLE_RANGE_QUANTILE)) if finite.size else 1.0,
+                  resolution, 1e-6)
+        over = bool(finite.size and finite.max() > lim)
+        fig, axs = plt.subplots(1, len(cols), figsize=(6.5 * len(cols), 5.5), constrained_layout=True,
+                                sharey=True, squeeze=False)
+        xe, ye = _edges(xs, _is_log(grid, xa)), _edges(ys, _is_log(grid, ya))
+        for ax, z, (_, name) in zip(axs[0], grids, cols):
+            mesh = ax.pcolormesh(xe, ye, z, cmap="RdBu_r", norm=TwoSlopeNorm(0.0, -lim, lim))
+            for iy, ix in zip(*np.nonzero(np.isfinite(z) & (np.abs(np.nan_to_num(z)) > lim))):
+                ax.text(xs[ix], ys[iy], f"{z[iy, ix]:.3g}", ha="center", va="center", fontsize=6,
+                        color="white")
+            for nm, setter in ((xa, ax.set_xscale), (ya, ax.set_yscale)):
+                if _is_log(grid, nm):
+                    setter("log")
+            ax.set_xlabel(_axis_label(xa))
+            ax.set_title(name, fontsize=9)
+        axs[0, 0].set_ylabel(_axis_label(ya))
+        fig.colorbar(mesh, ax=axs[0].tolist(), extend="both" if over else "neither",
+                     label=r"$\lambda_1 T$ (per forcing period; > 0: chaos)")
+        axs[0, 0].text(0.0, -0.16, "blank: not determined (diverged, or no synchronisation up to "
+                       "the RK4 limit); numbers: values beyond the colour range",
+                       transform=axs[0, 0].transAxes, fontsize=7)
+        fig.suptitle("Largest Lyapunov exponent\n" + _fixed_title(grid_name, table, axes), fontsize=9)
     else:
         xa = axes[0]
         fig, ax = plt.subplots(figsize=(9, 4), constrained_layout=True)
-        ax.plot(table[xa], per_period, "o-", ms=3, label="Stefanski")
+        ax.plot(table[xa], table["lle_stefanski"] * period, "o-", ms=3, label="Stefanski")
         for col, style in (("lle_benettin", "^:"), ("lle_nolds", "s--")):
             if col in table.columns:
-                ax.plot(table[xa], table[col] * 2 * np.pi / table["omega"], style, ms=3, label=col[4:])
+                ax.plot(table[xa], table[col] * period, style, ms=3, label=col[4:])
         ax.axhline(0, color="0.5", lw=0.8)
         if _is_log(grid, xa):
             ax.set_xscale("log")
         ax.set_xlabel(_axis_label(xa))
         ax.set_ylabel(r"$\lambda_1 T$ (per forcing period)")
         ax.legend(fontsize=8)
-    ax.set_title("Largest Lyapunov exponent\n" + _fixed_title(grid_name, table, axes), fontsize=9)
+        ax.set_title("Largest Lyapunov exponent\n" + _fixed_title(grid_name, table, axes), fontsize=9)
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
 

@@ -54,6 +54,16 @@ def test_dry_run_of_every_target():
         assert res.returncode == 0, (target, res.stderr[-2000:])
 
 
+@pytest.mark.parametrize("grid_file", sorted(p.name for p in (ROOT / "config").glob("grid*.yaml")))
+def test_every_shipped_grid_file_validates_and_plans(grid_file):
+    """The grid files the project ships (the default and the three-mode chaos grid) pass the
+    schemas (structure and model values, marks on the grid) and plan."""
+    res = subprocess.run([sys.executable, "-m", "snakemake", "-n", "regimes", "--config",
+                          f"grid_file=config/{grid_file}"], cwd=ROOT, capture_output=True, text=True,
+                         timeout=300)
+    assert res.returncode == 0, (grid_file, res.stderr[-2000:])
+
+
 def test_outputs_table_schema_and_metadata(first_run):
     out = first_run / "results" / "regimes"
     for name in ("tiny.parquet", "tiny/regimes.png", "tiny/lle.png", "tiny/portraits.png"):

@@ -8,6 +8,7 @@ from snakemake.exceptions import WorkflowError
 from snakemake.utils import validate
 
 from analysis.grid import canonical_json, chunk_points, expand_grid
+from analysis.regimes import CLASSIFIER_VERSION
 from beamsim.mode_cache import cache_key
 
 

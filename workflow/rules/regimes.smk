@@ -42,6 +42,7 @@ rule classify_chunk:
     params:
         points=chunk_payload,
         numerics=RESULT_NUMERICS,
+        classifier=CLASSIFIER_VERSION,
     log:
         "logs/regimes/{grid}/classify_{chunk}.log",
     conda:
@@ -81,6 +82,7 @@ rule regime_figures:
         lle="results/regimes/{grid}/lle.png",
     params:
         grid=lambda wc: GRIDS["grids"][wc.grid],
+        numerics=RESULT_NUMERICS,
         dpi=config.get("figures", {}).get("dpi", 130),
     log:
         "logs/regimes/{grid}/regime_figures.log",
