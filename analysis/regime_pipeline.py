@@ -284,16 +284,21 @@ def package_versions() -> dict:
 def write_regime_table(table: pd.DataFrame, path: str, *, grid_name: str, grid: dict, config: dict,
                        config_hash: str) -> None:
     """Write the table to Parquet with ``beamsim.regimes`` metadata (grid, config, config hash,
-    package versions); atomically, so a failed run never leaves a partial table."""
+    package versions, the results and classifier versions); atomically, so a failed run never
+    leaves a partial table."""
     import json
     import os
 
     import pyarrow as pa
     import pyarrow.parquet as pq
 
+    from analysis.grid import RESULTS_VERSION
+    from analysis.regimes import CLASSIFIER_VERSION
+
     tab = pa.Table.from_pandas(table, preserve_index=False)
     meta = {"grid_name": grid_name, "grid": grid, "config": config, "config_hash": config_hash,
-            "versions": package_versions()}
+            "versions": package_versions(), "results_version": RESULTS_VERSION,
+            "classifier_version": CLASSIFIER_VERSION}
     tab = tab.replace_schema_metadata({**(tab.schema.metadata or {}),
                                        b"beamsim.regimes": json.dumps(meta, sort_keys=True).encode()})
     tmp = f"{path}.tmp"

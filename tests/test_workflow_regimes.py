@@ -12,7 +12,9 @@ import pandas as pd
 import pytest
 import yaml
 
+from analysis.grid import RESULTS_VERSION
 from analysis.regime_pipeline import read_regime_metadata
+from analysis.regimes import CLASSIFIER_VERSION
 
 # the tests share one built working directory: keep them on one xdist worker
 pytestmark = pytest.mark.xdist_group("regimes")
@@ -79,6 +81,7 @@ def test_outputs_table_schema_and_metadata(first_run):
     meta = read_regime_metadata(out / "tiny.parquet")
     assert len(meta["config_hash"]) == 16 and meta["grid_name"] == "tiny"
     assert meta["versions"]["numpy"] and meta["grid"]["fixed"]["Omega"] == 2.5
+    assert meta["classifier_version"] == CLASSIFIER_VERSION and meta["results_version"] == RESULTS_VERSION
 
 
 def test_adding_a_point_computes_only_the_new_one(first_run, tmp_path):
