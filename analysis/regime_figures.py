@@ -129,6 +129,16 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
 LLE_RANGE_QUANTILE = 0.95
 
 
+def lle_colour_limit(values: np.ndarray, resolution: float = 0.0) -> float:
+    """Half-width of the symmetric colour scale of a ``lambda_1 T`` map: the
+    :data:`LLE_RANGE_QUANTILE` quantile of ``|values|`` (non-finite ignored), at least
+    ``resolution`` and ``1e-6``; 1 if nothing is finite."""
+    v = np.abs(np.asarray(values, dtype=float))
+    v = v[np.isfinite(v)]
+    q = float(np.quantile(v, LLE_RANGE_QUANTILE)) if v.size else 1.0
+    return max(q, float(resolution), 1e-6)
+
+
 def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: int = 130,
              resolution: float = 0.0) -> None:
     """Largest Lyapunov exponent per forcing period, map (2-D grid) or curve (1-D grid).
@@ -156,8 +166,7 @@ def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: in
                 z[np.searchsorted(ys, row[ya]), np.searchsorted(xs, row[xa])] = v
             grids.append(z)
         finite = np.abs(np.concatenate([z[np.isfinite(z)] for z in grids]))
-        lim = max(float(np.quantile(finite, LLE_RANGE_QUANTILE)) if finite.size else 1.0,
-                  resolution, 1e-6)
+        lim = lle_colour_limit(finite, resolution)
         over = bool(finite.size and finite.max() > lim)
         fig, axs = plt.subplots(1, len(cols), figsize=(6.5 * len(cols), 5.5), constrained_layout=True,
                                 sharey=True, squeeze=False)

@@ -59,6 +59,7 @@ from analysis.zero_one_test import zero_one_test
 
 __all__ = [
     "CHAOTIC",
+    "CLASSIFIER_VERSION",
     "DIVERGED",
     "LABELS",
     "MIN_SAMPLES",
@@ -68,7 +69,6 @@ __all__ = [
     "RegimeResult",
     "classify",
     "is_settled",
-    "CLASSIFIER_VERSION",
     "lle_per_period_from_rate",
 ]
 
@@ -170,8 +170,8 @@ def is_settled(
     ``c_k`` is the sampling noise of the statistic, so that a chaotic record --
     whose halves differ by chance, most in the extreme quantiles of a short,
     intermittent record -- is not mistaken for a transient: the record is cut
-    into blocks of ``block`` rows (default ``max(4, n / 16)``, longer than the
-    correlation time of a chaotic record), the block order is permuted
+    into blocks of ``block`` rows (default ``max(4, n / 16)``; meant to be longer
+    than the correlation time of a chaotic record), the block order is permuted
     ``n_perm`` times (seeded: deterministic), and ``c_k`` is the
     ``1 - alpha / 4`` quantile of ``max_j D_kj`` over the permuted records
     (a block-permutation test at family-wise level ``alpha`` over the four
@@ -182,12 +182,15 @@ def is_settled(
     when some ``D_kj`` exceeds ``r``.
 
     Limitations: a torus whose slowest rotation takes longer than half the
-    record can fail the test although settled; a transient much slower than
+    record, or intermittent chaos whose laminar phases are longer than a block,
+    can fail the test although settled; a transient much slower than
     the record (a drift below ``max(r, c_k) S`` over the whole record) passes it.
     """
     x = validate_samples(poincare, name="poincare", min_samples=8)
     if not (0.0 < alpha < 1.0):
         raise ValueError(f"alpha must be in (0, 1), got {alpha!r}")
+    if int(n_perm) < 1 or (block is not None and int(block) < 1):
+        raise ValueError(f"n_perm and block must be >= 1, got n_perm={n_perm!r}, block={block!r}")
     s = component_scales(x, floor_rtol=scale_floor_rtol)
     h = x.shape[0] // 2
     y = x[-2 * h:]

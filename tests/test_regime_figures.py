@@ -1,0 +1,46 @@
+"""Regime figures: the lambda_1 colour scale and that every figure kind is drawn (2-D maps,
+1-D diagrams) from a regime table."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from analysis.regime_figures import LLE_RANGE_QUANTILE, lle_colour_limit, plot_lle, plot_regimes
+
+
+def test_lle_colour_limit_ignores_outliers_but_not_the_resolution() -> None:
+    v = np.r_[np.linspace(-1.0, 1.0, 98), 460.0, np.nan]  # one Stefanski outlier, one undetermined
+    lim = lle_colour_limit(v)
+    assert lim == pytest.approx(np.quantile(np.abs(v[np.isfinite(v)]), LLE_RANGE_QUANTILE))
+    assert 0.9 < lim < 1.0  # the outlier does not set the scale
+    assert lle_colour_limit(v * 1e-3, resolution=0.2) == 0.2  # all within the resolution
+    assert lle_colour_limit(np.array([np.nan])) == 1.0
+
+
+def _table(axes: dict) -> pd.DataFrame:
+    names = list(axes)
+    grid = np.meshgrid(*axes.values(), indexing="ij")
+    n = grid[0].size
+    rng = np.random.default_rng(0)
+    t = pd.DataFrame({k: g.ravel() for k, g in zip(names, grid)})
+    t = t.assign(law="stick-slip", mu_k=0.3, n_modes=1, omega=0.1,
+                 label=np.array(["periodic", "quasi-periodic", "chaotic", "unsettled"])[np.arange(n) % 4],
+                 period=pd.array([1, None, None, None] * (n // 4) + [1] * (n % 4), dtype="Int64"),
+                 lle_stefanski=rng.normal(0.0, 0.01, n), lle_benettin=rng.normal(0.0, 0.01, n),
+                 lle_nolds=rng.normal(0.0, 0.01, n), slipped=np.arange(n) % 5 != 0)
+    t.loc[0, "lle_stefanski"] = 7.0  # an outlier
+    t["poincare_w_tip"] = [rng.normal(size=8) for _ in range(n)]
+    return t
+
+
+@pytest.mark.parametrize("axes", [{"Omega": [1.0, 2.0, 4.0], "f0_rel": [1.0, 1.5, 2.0, 3.0]},
+                                  {"f0_rel": [1.0, 1.5, 2.0, 3.0, 4.0]}])
+def test_regime_and_lle_figures_are_drawn(tmp_path, axes) -> None:
+    table = _table(axes)
+    grid = {"axes": {k: ({"range": [v[0], v[-1]], "num": len(v), "scale": "log"} if k == "Omega" else v)
+                     for k, v in axes.items()}}
+    for plot, name in ((plot_regimes, "regimes.png"), (plot_lle, "lle.png")):
+        plot(table, "g", grid, str(tmp_path / name), dpi=40)
+        assert (tmp_path / name).stat().st_size > 1000
