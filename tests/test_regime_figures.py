@@ -27,7 +27,7 @@ def _table(axes: dict) -> pd.DataFrame:
     t = pd.DataFrame({k: g.ravel() for k, g in zip(names, grid)})
     t = t.assign(law="stick-slip", mu_k=0.3, n_modes=1, omega=0.1,
                  label=np.array(["periodic", "quasi-periodic", "chaotic", "unsettled"])[np.arange(n) % 4],
-                 period=pd.array([1, None, None, None] * (n // 4) + [1] * (n % 4), dtype="Int64"),
+                 period=pd.array([1 if i % 4 == 0 else None for i in range(n)], dtype="Int64"),
                  lle_stefanski=rng.normal(0.0, 0.01, n), lle_benettin=rng.normal(0.0, 0.01, n),
                  lle_nolds=rng.normal(0.0, 0.01, n), slipped=np.arange(n) % 5 != 0)
     t.loc[0, "lle_stefanski"] = 7.0  # an outlier
