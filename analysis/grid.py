@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 #: bump when a code change alters results for unchanged parameters (invalidates all ids)
-RESULTS_VERSION = "4"
+RESULTS_VERSION = "5"
 
 
 def _canonical(value):

@@ -587,7 +587,8 @@ def stefanski_lle(rhs: Callable, x0: Any, params: Any, *, dt: float, t_transient
 
 def sync_search(run_batch: Callable, *, t_s: np.ndarray, batch: int, rtol: float, atol: float,
                 omega_c: float, d_cap: float, zero_tol: float, e0: float, bounded: bool,
-                max_rounds: int, zero_first: bool = False) -> LLEResult:
+                max_rounds: int, zero_first: bool = False,
+                ladder_hint: float | None = None) -> LLEResult:
     """Bracket search for the synchronising coupling d_s (steps 4-5 of :func:`stefanski_lle`),
     shared by the generic estimator and the beam's (:mod:`analysis.beam_lyapunov`).
 
@@ -597,7 +598,15 @@ def sync_search(run_batch: Callable, *, t_s: np.ndarray, batch: int, rtol: float
     ``zero_first``: test ``d = 0`` alone first (most beam points are not chaotic, and then
     nothing else is needed): if it synchronises, or its windowed rate (the finite-time
     exponent of the free pair) is within ``zero_tol``, the exponent is reported from it; the
-    ladder and the bisection run only when ``r(0) > zero_tol``.  ``scale``,
+    ladder and the bisection run only when ``r(0) > zero_tol``.
+    ``ladder_hint``: an estimate of ``lambda_1`` from another method (the beam's Benettin
+    copy), used with ``zero_first`` when it is finite and above ``zero_tol``: the ladder is
+    then ``hint * 2^(k/2)``, ``k = -2 .. batch - 4`` (half to ``2^((batch-4)/2)`` times the
+    hint, steps of ``sqrt 2``) instead of the factor-2 ladder below ``omega_c``, so one
+    multisection round usually closes the bracket to ``rtol``.  The hint only places the
+    candidates: the decisions are the synchronisation tests, the bracket is extended upwards
+    (factor 2) if nothing synchronises, and a ladder that synchronises everywhere brackets
+    ``d_s`` in ``[0, lowest]``.  ``scale``,
     ``runtime`` and ``n_rhs_evals`` of the result are left for the caller to fill.
     """
     t_start = time.perf_counter()
@@ -607,6 +616,8 @@ def sync_search(run_batch: Callable, *, t_s: np.ndarray, batch: int, rtol: float
     # ---- round 1: d = 0 and a geometric ladder up to omega_c --------------
     top = min(omega_c, d_cap)
     ladder = top * 2.0 ** np.arange(-(batch - 2), 1, dtype=float)
+    if zero_first and ladder_hint is not None and math.isfinite(ladder_hint) and ladder_hint > zero_tol:
+        ladder = np.unique(np.minimum(ladder_hint * 2.0 ** (np.arange(batch - 1, dtype=float) / 2 - 1.0), d_cap))
     ds = np.array([0.0]) if zero_first else np.concatenate(([0.0], ladder))
     rate, log_err, synced = run_batch(ds)
     rounds.append({"d": ds.copy(), "rate": rate.copy(), "synced": synced.copy()})

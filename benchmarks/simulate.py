@@ -20,7 +20,8 @@ periods, accuracy measured on the 5 stroboscopic (Poincare) samples of the full 
   divided by max |state|.  Targets: the accuracy of our expo run (the headline), of our RK4
   run, and a practical 1e-4.
 * Ours: ``method="rk4"`` (reference integrator, default step) and ``method="expo"``
-  (default 128 steps per period with adaptive event checks), and ``method="newmark"`` for
+  (default 64 steps per period with adaptive event checks; 128 before, when the tables of
+  docs/model.md section 11 were measured), and ``method="newmark"`` for
   information; single trajectory and a batch of 16 points with 1 and 2 numba threads.
 
 The last line is ``speedup_vs_solve_ivp=<x>``: per trajectory, single thread, our ``expo``

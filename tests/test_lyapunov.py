@@ -37,6 +37,7 @@ from analysis.lyapunov import (
     nolds_lle,
     sample_trajectory,
     stefanski_lle,
+    sync_search,
 )
 from analysis.reference_systems import REFERENCE_SYSTEMS, get_system
 
@@ -257,3 +258,37 @@ def test_nolds_bad_input_raises():
         nolds_lle(np.sin(np.arange(100.0)), sample_dt=0.0)
     with pytest.raises(ValueError, match="series"):
         nolds_lle(np.array([1.0, float("nan")] * 20), sample_dt=1.0)
+
+
+def _linear_rate_batch(lam: float, t_s: np.ndarray, e0: float, calls: list):
+    """A response family with the linear theory's rate ``r(d) = lam - d`` (synchronised where
+    it is negative), as the beam's run_batch returns it; ``calls`` collects the batches."""
+    def run_batch(ds):
+        ds = np.asarray(ds, dtype=float)
+        calls.append(ds.copy())
+        rate = lam - ds
+        log_err = math.log(e0) + rate[:, None] * t_s[None, :]
+        return rate, log_err, rate < 0.0
+    return run_batch
+
+
+@pytest.mark.parametrize("hint_factor", [None, 1.0, 0.7, 0.05, 30.0])
+def test_seeded_ladder_finds_the_threshold_wherever_the_hint_is(hint_factor):
+    """sync_search with ``ladder_hint`` (the beam's Benettin estimate): the threshold ``d_s =
+    lam`` is found to ``rtol`` with a good hint, a poor one (0.7x), and hints 20x too small or 30x
+    too large (the bracket is then extended upwards or opened down to 0); a hint near the value
+    saves rounds against the factor-2 ladder below omega_c."""
+    lam, omega_c, t_s, e0 = 0.37, 50.0, np.linspace(0.5, 50.0, 100), 1e-6
+    out = {}
+    for hint in (None, None if hint_factor is None else hint_factor * lam):
+        calls: list = []
+        res = sync_search(_linear_rate_batch(lam, t_s, e0, calls), t_s=t_s, batch=8, rtol=0.05,
+                          atol=1e-6, omega_c=omega_c, d_cap=1e3, zero_tol=0.05, e0=e0,
+                          bounded=True, max_rounds=12, zero_first=True, ladder_hint=hint)
+        assert res.chaotic
+        assert abs(res.value - lam) <= 0.05 * lam, (hint, res.value, res.bracket)
+        lo, hi = res.bracket
+        assert lo <= lam <= hi and hi - lo <= 0.05 * hi, (hint, res.bracket)
+        out[hint] = len(calls)
+    if hint_factor in (1.0, 0.7):
+        assert out[hint_factor * lam] < out[None], out
