@@ -10,6 +10,7 @@ configfile: "config/config.yaml"
 wildcard_constraints:
     grid=r"[A-Za-z0-9_-]+",  # grid names (workflow/schemas/grid.schema.yaml)
     chunk=r"[0-9]{3}",
+    stage=r"simulate|lyapunov",
 
 
 include: "workflow/rules/common.smk"

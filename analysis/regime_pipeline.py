@@ -37,6 +37,33 @@ def _cached_stage(points: Sequence[dict], store: PointStore, compute: Callable[[
     return [store.load(p["point_id"]) for p in points]
 
 
+# ----------------------------------------------------------------------------- kernels
+def compile_kernels(stage: str, methods: Sequence[str] = ("expo",), threads: int = 1) -> float:
+    """Compile (or load from numba's on-disk cache) the kernels of one pipeline stage by running
+    them once on a one-mode point for one forcing period: ``"simulate"`` compiles the reference
+    integrators in ``methods``, ``"lyapunov"`` the drive/copy kernel
+    (:func:`beamsim.coupled_copies.run_copies`).  Compilation is single-threaded and takes
+    30-45 s per stage on a fresh install; as separate one-thread jobs the two stages compile
+    side by side instead of each delaying its first chunk.  Returns the wall time [s]."""
+    from beamsim.simulate import prepare_point, simulate_batch
+
+    t0 = time.perf_counter()
+    point = {"n_modes": 1, "Omega": 2.5, "f0_rel": 2.0, "mu_s": 0.45, "mu_k": 0.3}
+    if stage == "simulate":
+        for method in methods:
+            simulate_batch([point], n_transient=0, n_record=1, method=method, n_threads=threads)
+    elif stage == "lyapunov":
+        from analysis.beam_lyapunov import attractor_scale, beam_lle, response_scale
+
+        r = simulate_batch([point], n_transient=0, n_record=1, method="rk4", n_threads=threads)[0]
+        pp = prepare_point(**point)
+        scale = attractor_scale(r.poincare_state, response_scale(pp), pp.omega)
+        beam_lle([pp], r.final_state[None], scale[None], n_periods=1, n_threads=threads)
+    else:
+        raise ValueError(f"stage must be 'simulate' or 'lyapunov', got {stage!r}")
+    return time.perf_counter() - t0
+
+
 # ----------------------------------------------------------------------------- simulate
 def integrator(method: str, params: dict) -> str:
     """Integrator of a point's reference run.  ``auto``: ``expo`` for the stick-slip law (exact

@@ -8,6 +8,7 @@ from snakemake.exceptions import WorkflowError
 from snakemake.utils import validate
 
 from analysis.grid import canonical_json, chunk_points, expand_grid
+from analysis.regime_pipeline import integrator
 from analysis.regimes import CLASSIFIER_VERSION
 from beamsim.mode_cache import cache_key
 
@@ -89,6 +90,9 @@ CONFIG_HASH = hashlib.sha256(canonical_json({"config": TABLE_CONFIG, "grids": GR
 POINTS = {name: expand_grid(name, grid, config["model"], RESULT_NUMERICS)
           for name, grid in GRIDS["grids"].items()}
 CHUNKS = {name: chunk_points(pts, config["numerics"]["chunk_size"]) for name, pts in POINTS.items()}
+#: integrators of the reference runs (compile_kernels builds just these)
+SIMULATION_METHODS = sorted({integrator(config["numerics"]["method"], p.params)
+                             for pts in POINTS.values() for p in pts})
 
 
 def chunk_ids(grid: str) -> list[str]:

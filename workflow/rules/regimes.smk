@@ -1,6 +1,21 @@
+rule compile_kernels:
+    output:
+        stamp="results/kernels/{stage}.done",
+    params:
+        methods=SIMULATION_METHODS,
+    threads: 1
+    log:
+        "logs/kernels/{stage}.log",
+    conda:
+        "../envs/beamsim.yaml"
+    script:
+        "../scripts/compile_kernels.py"
+
+
 rule simulate_chunk:
     input:
         modes=chunk_mode_files,
+        kernels=ancient("results/kernels/simulate.done"),
     output:
         table="results/regimes/{grid}/chunks/{chunk}.simulate.parquet",
     params:
@@ -19,6 +34,7 @@ rule lyapunov_chunk:
     input:
         simulate="results/regimes/{grid}/chunks/{chunk}.simulate.parquet",
         modes=chunk_mode_files,
+        kernels=ancient("results/kernels/lyapunov.done"),
     output:
         table="results/regimes/{grid}/chunks/{chunk}.lyapunov.parquet",
     params:
