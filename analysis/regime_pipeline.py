@@ -53,12 +53,14 @@ def compile_kernels(stage: str, methods: Sequence[str] = ("expo",), threads: int
         for method in methods:
             simulate_batch([point], n_transient=0, n_record=1, method=method, n_threads=threads)
     elif stage == "lyapunov":
-        from analysis.beam_lyapunov import attractor_scale, beam_lle, response_scale
+        from analysis.beam_lyapunov import beam_lle, response_scale
 
-        r = simulate_batch([point], n_transient=0, n_record=1, method="rk4", n_threads=threads)[0]
         pp = prepare_point(**point)
-        scale = attractor_scale(r.poincare_state, response_scale(pp), pp.omega)
-        beam_lle([pp], r.final_state[None], scale[None], n_periods=1, n_threads=threads)
+        n, nq = pp.model.n, pp.model.n_quad
+        start = np.zeros((1, 2 * n + 2 * nq))  # at rest, every element stuck
+        q_ref = np.abs(response_scale(pp)) + 1e-12
+        scale = np.concatenate([q_ref, pp.omega * q_ref])[None]
+        beam_lle([pp], start, scale, n_periods=1, n_threads=threads)
     else:
         raise ValueError(f"stage must be 'simulate' or 'lyapunov', got {stage!r}")
     return time.perf_counter() - t0
