@@ -617,7 +617,8 @@ def sync_search(run_batch: Callable, *, t_s: np.ndarray, batch: int, rtol: float
     top = min(omega_c, d_cap)
     ladder = top * 2.0 ** np.arange(-(batch - 2), 1, dtype=float)
     if zero_first and ladder_hint is not None and math.isfinite(ladder_hint) and ladder_hint > zero_tol:
-        ladder = np.unique(np.minimum(ladder_hint * 2.0 ** (np.arange(batch - 1, dtype=float) / 2 - 1.0), d_cap))
+        steps = np.arange(batch - 1, dtype=float) / 2 - 1.0  # 0.5 ... 2^((batch-4)/2) x hint
+        ladder = np.unique(np.minimum(ladder_hint * 2.0 ** steps, d_cap))
     ds = np.array([0.0]) if zero_first else np.concatenate(([0.0], ladder))
     rate, log_err, synced = run_batch(ds)
     rounds.append({"d": ds.copy(), "rate": rate.copy(), "synced": synced.copy()})
