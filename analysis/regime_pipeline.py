@@ -40,7 +40,7 @@ def _cached_stage(points: Sequence[dict], store: PointStore, compute: Callable[[
 # ----------------------------------------------------------------------------- kernels
 def compile_kernels(stage: str, methods: Sequence[str] = ("expo",), threads: int = 1) -> float:
     """Compile (or load from numba's on-disk cache) the kernels of one pipeline stage by running
-    them once on a one-mode point for one forcing period: ``"simulate"`` compiles the reference
+    them once on a one-mode point for a few forcing periods: ``"simulate"`` compiles the reference
     integrators in ``methods``, ``"lyapunov"`` the drive/copy kernel
     (:func:`beamsim.coupled_copies.run_copies`).  Compilation is single-threaded and takes
     30-45 s per stage on a fresh install; as separate one-thread jobs the two stages compile
@@ -53,14 +53,13 @@ def compile_kernels(stage: str, methods: Sequence[str] = ("expo",), threads: int
         for method in methods:
             simulate_batch([point], n_transient=0, n_record=1, method=method, n_threads=threads)
     elif stage == "lyapunov":
-        from analysis.beam_lyapunov import beam_lle, response_scale
+        from analysis.beam_lyapunov import attractor_scale, beam_lle, response_scale
 
         pp = prepare_point(**point)
         n, nq = pp.model.n, pp.model.n_quad
         start = np.zeros((1, 2 * n + 2 * nq))  # at rest, every element stuck
-        q_ref = np.abs(response_scale(pp)) + 1e-12
-        scale = np.concatenate([q_ref, pp.omega * q_ref])[None]
-        beam_lle([pp], start, scale, n_periods=1, n_threads=threads)
+        scale = attractor_scale(np.zeros((2, 2 * n)), response_scale(pp), pp.omega)  # forced-response scale
+        beam_lle([pp], start, scale[None], n_periods=4, n_threads=threads)
     else:
         raise ValueError(f"stage must be 'simulate' or 'lyapunov', got {stage!r}")
     return time.perf_counter() - t0

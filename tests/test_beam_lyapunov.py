@@ -73,9 +73,9 @@ def test_rescaling_at_period_ends_does_not_change_the_recorded_error(settled):
     band and one rescaled at every period end as well record the same linearised error up to the
     nonlinear remainder (separations differ by up to the band; switch times move with them).
     Checked on the slipping periodic orbit and the stuck torus over 20 periods (measured 2.1e-3
-    and 8.5e-5): the records agree to 0.01 in ln eps, 1/500 of what the estimators resolve over a window (5 in ln eps,
-    the resolution 5 / n_periods per period); a wrong carry of the rescaling factor would differ
-    by ln(e / e0), i.e. O(1)."""
+    and 8.5e-5): the records agree to 0.01 in ln eps, 1/500 of what the estimators resolve over
+    a window (5 in ln eps, the resolution 5 / n_periods per period); a wrong carry of the
+    rescaling factor would differ by ln(e / e0), i.e. O(1)."""
     pts, res, prepared, scales = settled
     for k in (0, 1):
         pp = prepared[k]
@@ -188,8 +188,8 @@ def test_stefanski_agrees_with_benettin_at_a_two_mode_chaotic_point():
     two-mode point (mu_s / mu_k = 1.5), started where the pipeline starts (after 60 + 128
     periods at step factor 1.0), 100-period windows.  Measured: Stefanski 0.594, Benettin
     0.584 per period (ratio 1.017); the ladder seeded by Benettin's value gives Stefanski 0.5942
-    in 3 rounds, the factor-2 ladder 0.5943 in 4.  Not a property of every stretch of this attractor: from
-    states 60 and 140 periods later the ratio was 1.026 and 1.209, at step factor 0.25 1.073,
+    in 3 rounds, the factor-2 ladder 0.5943 in 4.  Not a property of every stretch of this
+    attractor: from states 60 and 140 periods later the ratio was 1.026 and 1.209, at step factor 0.25 1.073,
     over 200 periods 1.064 (docs/lyapunov.md s.7); at the three-mode point above it is 1.6-1.8."""
     pp = prepare_point(**CHAOTIC_2MODES)
     r = simulate_batch([CHAOTIC_2MODES], n_transient=60, n_record=128, method="rk4", step_factor=1.0,

@@ -280,7 +280,8 @@ def test_seeded_ladder_finds_the_threshold_wherever_the_hint_is(hint_factor):
     saves rounds against the factor-2 ladder below omega_c."""
     lam, omega_c, t_s, e0 = 0.37, 50.0, np.linspace(0.5, 50.0, 100), 1e-6
     out = {}
-    for hint in (None, None if hint_factor is None else hint_factor * lam):
+    hints = (None,) if hint_factor is None else (None, hint_factor * lam)
+    for hint in hints:
         calls: list = []
         res = sync_search(_linear_rate_batch(lam, t_s, e0, calls), t_s=t_s, batch=8, rtol=0.05,
                           atol=1e-6, omega_c=omega_c, d_cap=1e3, zero_tol=0.05, e0=e0,

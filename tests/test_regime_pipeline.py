@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-import pytest
 
 from analysis.grid import expand_grid
 from analysis.regime_pipeline import classify_points, integrator, poincare_array, simulate_points
@@ -27,19 +26,19 @@ POINTS = [{"Omega": 2.5, "f0_rel": 0.8}, {"Omega": 5.0, "f0_rel": 1.05}, {"Omega
           {"Omega": 4.7, "f0_rel": 1.3}, {"Omega": 1.25, "f0_rel": 3.0}]
 
 
-@pytest.mark.parametrize("n_modes", [1])
-def test_expo_and_rk4_reference_runs_give_the_same_labels(tmp_path, n_modes):
+def test_expo_and_rk4_reference_runs_give_the_same_labels(tmp_path):
     """The pipeline's `auto` reference runs (expo) against the RK4 reference, through the
     simulate and classify stages (labels from the Poincare indicators; lambda_1 left out): the
     same label and period at every point.  On the periodic orbits the stroboscopic samples agree
     to 1e-4 of the largest coordinate and 2e-3 of the largest velocity (measured at Omega =
     1.25, f0_rel = 3: 4.5e-6 and 9.1e-4 against RK4 at a quarter of the step, whatever expo's
     output grid, 64 or 512 steps; RK4 at step factor 1.0 is 2.7e-4 off there: the velocities
-    carry the fast interface modes, which see the switch times, and expo's event location lets
-    excursions shorter than 0.1 / omega_max pass, docs/model.md).  Both are far inside the
-    classifier's period tolerance (2 % of a component's scale, at least 0.2 % of the largest).
-    On the quasi-periodic ones the records drift along the torus, so the sets are compared."""
-    model = {"n_modes": n_modes, "mu_s": 0.45, "mu_k": 0.3, "interface_damping": 0.5, "Omega": 1.0,
+    carry the fast interface modes, most likely the ones that feel expo's event-location error,
+    docs/model.md).  Both are far inside the classifier's period tolerance (2 % of a component's
+    scale, at least 0.2 % of the largest).  On the quasi-periodic ones the records drift along
+    the torus, so the sets are compared: quantiles within that period tolerance, 2e-2 of the
+    largest (measured at most 4.8e-3)."""
+    model = {"n_modes": 1, "mu_s": 0.45, "mu_k": 0.3, "interface_damping": 0.5, "Omega": 1.0,
              "f0_rel": 1.0}
     grid = {"axes": {"Omega": sorted({p["Omega"] for p in POINTS}),
                      "f0_rel": sorted({p["f0_rel"] for p in POINTS})}}
@@ -60,17 +59,17 @@ def test_expo_and_rk4_reference_runs_give_the_same_labels(tmp_path, n_modes):
     assert len({lab for lab, _ in labels["rk4"]}) >= 2  # the points are not all of one kind
     # periodic orbits: sample by sample; quasi-periodic ones drift along the torus (a neutral
     # direction keeps any difference), so there the sets are compared: quantiles per component
-    for (lab, _), a, b in zip(labels["rk4"], tables["auto"]["poincare_state"], tables["rk4"]["poincare_state"]):
+    pairs = zip(labels["rk4"], tables["auto"]["poincare_state"], tables["rk4"]["poincare_state"])
+    for (lab, _), a, b in pairs:
         xa, xb = poincare_array(a), poincare_array(b)
         n = xb.shape[1] // 2
         for grp, tol in ((slice(0, n), 1e-4), (slice(n, 2 * n), 2e-3)):  # coordinates, velocities
             size = np.max(np.abs(xb[:, grp]))
             if lab == "periodic":
                 err = np.max(np.abs(xa[:, grp] - xb[:, grp])) / size
-                print(lab, err)
                 assert err < tol, (lab, err)
             else:
                 qs = np.linspace(0.05, 0.95, 7)
-                err = np.max(np.abs(np.quantile(xa[:, grp], qs, axis=0) - np.quantile(xb[:, grp], qs, axis=0))) / size
-                print(lab, err)
+                qa, qb = np.quantile(xa[:, grp], qs, axis=0), np.quantile(xb[:, grp], qs, axis=0)
+                err = np.max(np.abs(qa - qb)) / size
                 assert err < 2e-2, (lab, err)
