@@ -1,0 +1,63 @@
+"""Named argument bundles of the compiled kernels (numba passes named tuples as structs).
+
+Every array of a ``*Stack`` bundle has a leading point axis; :func:`point_at` and
+:func:`schedule_at` cut one point's view out of it inside a batch kernel.
+
+Inside a ``parallel=True`` kernel no variable may be called ``sched``: numba's generated
+parallel loop has a parameter of that name, and a variable of ours would shadow it.
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+from numba import njit
+
+#: constant inputs of one point.  Matrices of the first-order form ``Aq = -M^-1 K``,
+#: ``Av = -M^-1 C_struct``, ``Bt = -M^-1 S^T W``, ``gv = M^-1 g``; ``S`` slip at the quadrature
+#: points, ``wq`` their weights, ``kt`` Jenkins stiffness, ``ct`` interface dashpot, ``Mm, Km,
+#: Cm`` mass, stiffness and the damping matrix the integrator books (``damp``: it is nonzero),
+#: ``g`` load vector, ``tip`` tip-response rows; load ``F(t) = f0 (cos(om t) - 1)``; friction
+#: limits ``tau_s, tau_k`` (stick-slip) and ``fc, fs, vs, kv, eps`` (regularised laws); ``Minv``
+#: and ``Linv`` = ``M^-1`` and the inverse Cholesky factor of ``M`` (expo).
+Point = namedtuple("Point", ("law", "Aq", "Av", "Bt", "gv", "S", "wq", "kt", "ct", "Mm", "Km",
+                             "Cm", "damp", "g", "tip", "f0", "om", "tau_s", "tau_k", "fc", "fs",
+                             "vs", "kv", "eps", "Minv", "Linv"))
+
+#: every point's inputs stacked (``Cm, damp``: full damping; ``Cs, damp_s``: structural part;
+#: ``x0``: initial states; ``divl``: divergence limits)
+PointStack = namedtuple("PointStack", Point._fields + ("Cs", "damp_s", "x0", "divl"))
+
+#: step ``h``, steps per forcing period ``n_per``, transient and recorded periods, dense output
+#: every ``dense_every`` steps (0: none), divergence limit of ``max |q|``
+Schedule = namedtuple("Schedule", ("h", "n_per", "n_trans", "n_rec", "dense_every", "div_limit"))
+
+#: the batch's outputs, indexed by the point: Poincare state / tip / energy, dense history,
+#: flags (columns ``beamsim.results.FLAG_*``), final states
+Outputs = namedtuple("Outputs", ("pc_state", "pc_tip", "pc_energy", "dense", "flags", "final"))
+
+#: the integrated state: coordinates, velocities, Jenkins slips, stick/slip modes
+State = namedtuple("State", ("q", "v", "z", "mode"))
+
+#: cumulative energy ledger ``ecum = (W_in, D_friction, D_damping)`` and slip statistics
+#: (columns ``beamsim.results.STAT_*``)
+Tally = namedtuple("Tally", ("ecum", "stats"))
+
+
+@njit(cache=True)
+def point_at(stk, p, structural):
+    """Point ``p`` of a :data:`PointStack`; ``structural``: book only the structural damping
+    matrix (RK4, whose interface dashpot sits in the traction) instead of the full one."""
+    Cm = stk.Cs[p] if structural else stk.Cm[p]
+    damp = stk.damp_s[p] if structural else stk.damp[p]
+    return Point(stk.law[p], stk.Aq[p], stk.Av[p], stk.Bt[p], stk.gv[p], stk.S[p], stk.wq[p],
+                 stk.kt[p], stk.ct[p], stk.Mm[p], stk.Km[p], Cm, damp, stk.g[p], stk.tip[p],
+                 stk.f0[p], stk.om[p], stk.tau_s[p], stk.tau_k[p], stk.fc[p], stk.fs[p],
+                 stk.vs[p], stk.kv[p], stk.eps[p], stk.Minv[p], stk.Linv[p])
+
+
+@njit(cache=True)
+def schedule_at(sched, p):
+    """Schedule of point ``p`` from one whose ``h, n_per, dense_every, div_limit`` are per point."""
+    return Schedule(sched.h[p], sched.n_per[p], sched.n_trans, sched.n_rec,
+                    sched.dense_every[p], sched.div_limit[p])

@@ -1,0 +1,594 @@
+r"""``expo``: exact propagation of the piecewise-linear beam between located switches.
+
+Between two stick/slip switches the beam is linear with constant coefficients: a stick
+pattern (which Jenkins elements are stuck) fixes the stiffness ``K_P = K + k_t S_P^T W S_P``,
+and the state obeys ``x' = A x + b + g_v F(t)``.  With the eigen-decomposition
+``A = V diag(lam) V^-1`` (cached per pattern) the modal state has the closed form
+
+.. math:: \zeta_k(\tau) = e^{\lambda_k \tau}\zeta_k(0) + \beta_k \phi(\lambda_k, \tau)
+          + f_0 \gamma_k \big(\tfrac12 e^{i\omega t_0}\psi(\lambda_k, i\omega, \tau)
+          + \tfrac12 e^{-i\omega t_0}\psi(\lambda_k, -i\omega, \tau) - \phi(\lambda_k, \tau)\big)
+
+(``phi = (e^{l tau} - 1)/l``, ``psi = (e^{mu tau} - e^{l tau})/(mu - l)``).  The event functions
+are checked at adaptive points placed where no crossing can have happened before them (a bound
+of their second derivative from the closed form), the earliest crossing is refined by Illinois
+with a bisection safeguard, the switches are applied and a new pattern starts.  The work of
+the load is integrated exactly; the friction dissipation follows from the slip of the sliding
+elements; with damping the damping dissipation is the remainder of the energy identity.
+Stick-slip law only.  Steps ``h`` only set the output grid and the largest spacing of the
+checks.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import namedtuple
+
+import numpy as np
+from numba import njit, prange
+
+from beamsim.kernels import common
+from beamsim.kernels.bundles import point_at, schedule_at
+from beamsim.results import FLAG_N_CHECKS, FLAG_N_EVENTS, FLAG_N_PATTERNS
+
+#: eigen-decompositions of ``C`` stick patterns: pattern bit keys, eigenvalues ``lam``, ``V``,
+#: ``V^-1``, the slips and slip rates of the modes ``SVq = S V_q``, ``SVv = S V_v``, the load
+#: power rows ``cg = g V_v`` and the modal load ``gam = V^-1 [0; M^-1 g]``
+PatternCache = namedtuple("PatternCache", ("keys", "lam", "V", "Vi", "SVq", "SVv", "cg", "gam"))
+
+#: one pattern's entries of the cache
+Modes = namedtuple("Modes", ("lam", "V", "Vi", "SVq", "SVv", "cg", "gam"))
+
+#: per-point scratch: permanently free elements, stuck set, real state ``xr``, modal states
+#: ``zeta0`` (interval start), ``zeta`` (current), ``ztmp``, modal forcing ``beta``, the
+#: interface load ``rv``, rate bounds ``r1, r2`` and ``rate``, modal rate ``zdot``, slips
+#: ``sbuf``, slip rates ``sdbuf``, event functions ``fcur, fprev``, counters ``cnt`` (filled
+#: cache slots, decompositions, events, checks); ``nh`` modes evaluated (undamped: half,
+#: the other half are conjugates), ``fac`` = 2 or 1, ``n_sub`` checks per step at least
+ExpoWork = namedtuple("ExpoWork", ("free", "stuck", "xr", "zeta0", "zeta", "ztmp", "beta", "rv",
+                                   "r1", "r2", "zdot", "sbuf", "sdbuf", "fcur", "fprev", "rate",
+                                   "cnt", "nh", "fac", "n_sub"))
+
+_FILLED, _N_EIG, _N_EVENTS, _N_CHECKS = 0, 1, 2, 3
+
+
+@njit(cache=True)
+def _pattern(stuck, pt):
+    """Eigen-decomposition ``A = V diag(lam) V^-1`` of the first-order matrix of the linear system
+    with the stuck set ``stuck`` (springs k_t at the stuck points).  Undamped: from the real
+    symmetric problem ``K_P phi = omega^2 M phi`` (lam = +-i omega, V and V^-1 in closed
+    form); damped: complex eigen-decomposition.  Eigenvalues within 1e-9 of +-i omega_f are
+    shifted by -1e-9 (|lam| + omega_f) (exact-resonance guard)."""
+    Mm, Km, S, wq, kt, g, om = pt.Mm, pt.Km, pt.S, pt.wq, pt.kt, pt.g, pt.om
+    n = Km.shape[0]
+    nq = S.shape[0]
+    n2 = 2 * n
+    KP = Km.copy()
+    for j in range(nq):
+        if stuck[j]:
+            c = kt * wq[j]
+            for a in range(n):
+                for b in range(n):
+                    KP[a, b] += c * S[j, a] * S[j, b]
+    if not pt.damp:
+        Kt = pt.Linv @ KP @ pt.Linv.T
+        Kt = 0.5 * (Kt + Kt.T)
+        w2, Y = np.linalg.eigh(Kt)
+        Phi = pt.Linv.T @ Y                  # M-orthonormal modes
+        Psi = Phi.T @ Mm                     # Psi Phi = I
+        lam = np.empty(n2, np.complex128)
+        V = np.empty((n2, n2), np.complex128)
+        Vi = np.empty((n2, n2), np.complex128)
+        for k in range(n):
+            wk = math.sqrt(max(w2[k], 1e-300))
+            lam[k] = 1j * wk
+            lam[n + k] = -1j * wk
+            for a in range(n):
+                V[a, k] = Phi[a, k]
+                V[a, n + k] = Phi[a, k]
+                V[n + a, k] = 1j * wk * Phi[a, k]
+                V[n + a, n + k] = -1j * wk * Phi[a, k]
+                Vi[k, a] = 0.5 * Psi[k, a]
+                Vi[n + k, a] = 0.5 * Psi[k, a]
+                Vi[k, n + a] = -0.5j / wk * Psi[k, a]
+                Vi[n + k, n + a] = 0.5j / wk * Psi[k, a]
+    else:
+        A = np.zeros((n2, n2), np.complex128)
+        MK = pt.Minv @ KP
+        MC = pt.Minv @ pt.Cm
+        for a in range(n):
+            A[a, n + a] = 1.0
+            for b in range(n):
+                A[n + a, b] = -MK[a, b]
+                A[n + a, n + b] = -MC[a, b]
+        lam, V = np.linalg.eig(A)
+        Vi = np.linalg.inv(V)
+    for k in range(n2):
+        tol = 1e-9 * (abs(lam[k]) + om)
+        if abs(lam[k] - 1j * om) < tol or abs(lam[k] + 1j * om) < tol:
+            lam[k] = lam[k] - tol
+    Sc = S.astype(np.complex128)
+    SVq = Sc @ np.ascontiguousarray(V[:n, :])
+    SVv = Sc @ np.ascontiguousarray(V[n:, :])
+    gc = g.astype(np.complex128)
+    cg = gc @ np.ascontiguousarray(V[n:, :])
+    Mg = (pt.Minv @ g).astype(np.complex128)
+    gam = np.ascontiguousarray(Vi[:, n:]) @ Mg
+    return lam, V, Vi, SVq, SVv, cg, gam
+
+
+@njit(cache=True, inline="always")
+def _phi_e(l, tau, e):
+    """(e - 1) / l with e = exp(l tau) precomputed (series for small |l tau|)."""
+    x = l * tau
+    if abs(x) < 1e-4:
+        return tau * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x / 24.0)))
+    return (e - 1.0) / l
+
+
+@njit(cache=True, inline="always")
+def _psi(l, mu, tau, el, emu):
+    """(exp(mu tau) - exp(l tau)) / (mu - l), given el = exp(l tau), emu = exp(mu tau)."""
+    d = mu - l
+    if abs(d * tau) < 1e-4:
+        x = d * tau
+        return el * tau * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x / 24.0)))
+    return (emu - el) / d
+
+
+@njit(cache=True)
+def _zeta_at(tau, md, wk, t0, pt, out):
+    """Modal state at ``t0 + tau`` of the interval that started at ``t0`` in ``wk.zeta0`` (only
+    the first ``wk.nh`` terms: undamped systems store conjugate pairs k, n + k, and the second
+    half is never needed in the hot loops)."""
+    f0, om = pt.f0, pt.om
+    lam, gam, z0, beta = md.lam, md.gam, wk.zeta0, wk.beta
+    ep = np.exp(1j * om * t0)
+    em = np.conj(ep)
+    eip = np.exp(1j * om * tau)
+    eim = np.conj(eip)
+    io = 1j * om
+    for k in range(wk.nh):
+        l = lam[k]
+        el = np.exp(l * tau)
+        ph = _phi_e(l, tau, el)
+        psip = _psi(l, io, tau, el, eip)
+        psim = _psi(l, -io, tau, el, eim)
+        out[k] = el * z0[k] + beta[k] * ph + f0 * gam[k] * (0.5 * ep * psip + 0.5 * em * psim - ph)
+
+
+@njit(cache=True)
+def _work(tau1, md, wk, t0, pt):
+    """Exact ``int_0^tau1 F(t0 + tau) g.v(tau) dtau`` for the interval solution."""
+    f0, om = pt.f0, pt.om
+    lam, gam, cg, z0, beta = md.lam, md.gam, md.cg, wk.zeta0, wk.beta
+    ep = np.exp(1j * om * t0)
+    em = np.conj(ep)
+    io = 1j * om
+    ap = 0.5 * f0 * ep
+    am = 0.5 * f0 * em
+    a0 = -f0 + 0.0j
+    eip = np.exp(io * tau1)
+    eim = np.conj(eip)
+    total = 0.0j
+    SB = 0.0j
+    SC = 0.0j
+    SD = 0.0j
+    for k in range(lam.shape[0]):
+        l = lam[k]
+        fg = f0 * gam[k]
+        Ak = z0[k] + beta[k] / l - fg / l - fg * 0.5 * ep / (io - l) - fg * 0.5 * em / (-io - l)
+        SB += cg[k] * (-beta[k] / l + fg / l)
+        SC += cg[k] * fg * 0.5 * ep / (io - l)
+        SD += cg[k] * fg * 0.5 * em / (-io - l)
+        el = np.exp(l * tau1)
+        total += cg[k] * Ak * (ap * _phi_e(l + io, tau1, el * eip)
+                               + am * _phi_e(l - io, tau1, el * eim) + a0 * _phi_e(l, tau1, el))
+    pp_ = _phi_e(io, tau1, eip)
+    pm_ = _phi_e(-io, tau1, eim)
+    total += SB * (ap * pp_ + am * pm_ + a0 * tau1)
+    total += SC * (ap * _phi_e(2 * io, tau1, eip * eip) + am * tau1 + a0 * pp_)
+    total += SD * (ap * tau1 + am * _phi_e(-2 * io, tau1, eim * eim) + a0 * pm_)
+    return total.real
+
+
+@njit(cache=True)
+def _cond(j, zeta, md, x, pt, wk):
+    """Event function of element j at the modal state ``zeta`` (> 0: the current stick/slip
+    state is violated)."""
+    if x.mode[j] == 0:
+        s = 0.0
+        for k in range(wk.nh):
+            s += (md.SVq[j, k] * zeta[k]).real
+        return abs(pt.kt * (wk.fac * s - x.z[j])) - pt.tau_s[j] * (1.0 + 1e-12)
+    sd = 0.0
+    for k in range(wk.nh):
+        sd += (md.SVv[j, k] * zeta[k]).real
+    return -x.mode[j] * wk.fac * sd
+
+
+@njit(cache=True)
+def _conds(zeta, md, x, pt, wk):
+    """All event functions at the modal state ``zeta`` into ``wk.fcur`` (slips and slip rates
+    into ``wk.sbuf, wk.sdbuf``); returns True if any is violated."""
+    SVq, SVv, nh, fac = md.SVq, md.SVv, wk.nh, wk.fac
+    fout = wk.fcur
+    hit = False
+    for j in range(SVq.shape[0]):
+        s = 0.0
+        sd = 0.0
+        for k in range(nh):
+            s += (SVq[j, k] * zeta[k]).real
+            sd += (SVv[j, k] * zeta[k]).real
+        s *= fac
+        sd *= fac
+        wk.sbuf[j] = s
+        wk.sdbuf[j] = sd
+        if wk.free[j]:
+            fout[j] = -1.0
+        elif x.mode[j] == 0:
+            fout[j] = abs(pt.kt * (s - x.z[j])) - pt.tau_s[j] * (1.0 + 1e-12)
+        else:
+            fout[j] = -x.mode[j] * sd
+        if fout[j] > 0.0:
+            hit = True
+    return hit
+
+
+@njit(cache=True)
+def _pattern_key(wk, x):
+    """Bit key of the current stick pattern (bit j: element j stuck); sets ``wk.stuck``."""
+    key = 0
+    for j in range(x.z.shape[0]):
+        wk.stuck[j] = (x.mode[j] == 0) and not wk.free[j]
+        if wk.stuck[j]:
+            key |= (1 << j)
+    return key
+
+
+@njit(cache=True)
+def _fill_slot(key, cache, wk, pt):
+    """Eigen-decompose the pattern ``wk.stuck`` (bit key ``key``) into a cache slot; returns it."""
+    lam_, V_, Vi_, SVq_, SVv_, cg_, gam_ = _pattern(wk.stuck, pt)
+    cnt = wk.cnt
+    cnt[_N_EIG] += 1
+    C = cache.keys.shape[0]
+    if cnt[_FILLED] < C:
+        slot = cnt[_FILLED]
+        cnt[_FILLED] += 1
+    else:
+        slot = cnt[_N_EIG] % C
+    cache.keys[slot] = key
+    cache.lam[slot] = lam_
+    cache.V[slot] = V_
+    cache.Vi[slot] = Vi_
+    cache.SVq[slot] = SVq_
+    cache.SVv[slot] = SVv_
+    cache.cg[slot] = cg_
+    cache.gam[slot] = gam_
+    return slot
+
+
+@njit(cache=True)
+def _project(md, wk, x, pt):
+    """Modal coordinates ``wk.zeta0`` of the current state and the constant modal forcing
+    ``wk.beta`` of the stuck springs' anchors and the sliding elements' kinetic tractions."""
+    q, v, z, mode = x.q, x.v, x.z, x.mode
+    n = q.shape[0]
+    n2 = 2 * n
+    xr, rv = wk.xr, wk.rv
+    for i in range(n):
+        xr[i] = q[i]
+        xr[n + i] = v[i]
+    for i in range(n):
+        rv[i] = 0.0
+    for j in range(z.shape[0]):
+        if wk.free[j]:
+            continue
+        if wk.stuck[j]:
+            c = pt.kt * pt.wq[j] * z[j]
+        else:
+            c = -pt.wq[j] * mode[j] * pt.tau_k[j]
+        for i in range(n):
+            rv[i] += c * pt.S[j, i]
+    bv = pt.Minv @ rv
+    Vi = md.Vi
+    for k in range(n2):
+        acc = 0.0j
+        acc2 = 0.0j
+        for i in range(n2):
+            acc += Vi[k, i] * xr[i]
+        for i in range(n):
+            acc2 += Vi[k, n + i] * bv[i]
+        wk.zeta0[k] = acc
+        wk.beta[k] = acc2
+
+
+@njit(cache=True)
+def _rate_bounds(t0, md, wk, x, pt):
+    """Bounds of the second derivative of every event function on the interval from ``t0``
+    (stuck: ``k_t |s_j''|``, slipping: ``|s_j'''|``) into ``wk.rate``, from the closed form
+    ``zeta_k(tau) = A_k e^{lam_k tau} + B_k + C_k e^{i w tau} + D_k e^{-i w tau}``; returns the
+    largest ``|lam_k|``."""
+    f0, om = pt.f0, pt.om
+    lam, gam, r1, r2 = md.lam, md.gam, wk.r1, wk.r2
+    ep = np.exp(1j * om * t0)
+    io = 1j * om
+    lmax = 0.0
+    for k in range(wk.nh):
+        l = lam[k]
+        fg = f0 * gam[k]
+        Ck = fg * 0.5 * ep / (io - l)
+        Dk = fg * 0.5 * np.conj(ep) / (-io - l)
+        Ak = wk.zeta0[k] + wk.beta[k] / l - fg / l - Ck - Dk
+        al = abs(l)
+        if al > lmax:
+            lmax = al
+        r1[k] = al * al * abs(Ak) + om * om * (abs(Ck) + abs(Dk))
+        r2[k] = al * al * al * abs(Ak) + om * om * om * (abs(Ck) + abs(Dk))
+    for j in range(x.z.shape[0]):
+        acc = 0.0
+        if x.mode[j] == 0:
+            for k in range(wk.nh):
+                acc += abs(md.SVq[j, k]) * r1[k]
+            wk.rate[j] = pt.kt * wk.fac * acc
+        else:
+            for k in range(wk.nh):
+                acc += abs(md.SVq[j, k]) * r2[k]
+            wk.rate[j] = wk.fac * acc
+    return lmax
+
+
+@njit(cache=True)
+def _next_check(lo, t0, d_max, d_min, md, wk, x, pt):
+    """Distance from the check at ``lo`` to the next one: the first possible root of
+    ``f + f' d + M2 d^2 / 2`` over the unviolated elements (exact ``f'``, ``M2`` from
+    :func:`_rate_bounds`), within ``[d_min, d_max]``."""
+    dlt = d_max
+    # zeta' = lam zeta + beta + gam F(t) at the current check
+    Fc = pt.f0 * (math.cos(pt.om * (t0 + lo)) - 1.0)
+    for k in range(wk.nh):
+        wk.zdot[k] = md.lam[k] * wk.zeta[k] + wk.beta[k] + md.gam[k] * Fc
+    for j in range(x.z.shape[0]):
+        fj = wk.fcur[j]
+        if wk.free[j] or fj >= 0.0:
+            continue
+        if x.mode[j] == 0:
+            d1 = pt.kt * wk.sdbuf[j] if wk.sbuf[j] - x.z[j] >= 0.0 else -pt.kt * wk.sdbuf[j]
+        else:
+            sdd = 0.0
+            for k in range(wk.nh):
+                sdd += (md.SVv[j, k] * wk.zdot[k]).real
+            d1 = -x.mode[j] * wk.fac * sdd
+        M2 = wk.rate[j]
+        if M2 > 0.0:
+            dj = (-d1 + math.sqrt(d1 * d1 - 2.0 * M2 * fj)) / M2
+        elif d1 > 0.0:
+            dj = -fj / d1
+        else:
+            dj = d_max
+        if dj < dlt:
+            dlt = dj
+    if dlt < d_min:
+        dlt = d_min
+    return dlt
+
+
+@njit(cache=True)
+def _refine(j, lo, tau, span, t0, md, wk, x, pt):
+    """Crossing of element ``j``'s event function in ``[lo, tau]`` (Illinois, i.e. modified
+    regula falsi, with every fourth and every step after the 40th a bisection); returns the
+    right end of the final bracket."""
+    a = lo
+    b = tau
+    fa = min(wk.fprev[j], 0.0)
+    fb = wk.fcur[j]
+    side = 0
+    for it in range(200):
+        if b - a <= 1e-12 * span:
+            break
+        if it >= 40 or it % 4 == 3 or fb - fa <= 0.0:
+            mid = 0.5 * (a + b)
+        else:
+            mid = b - fb * (b - a) / (fb - fa)
+            if not (a < mid < b):
+                mid = 0.5 * (a + b)
+        _zeta_at(mid, md, wk, t0, pt, wk.ztmp)
+        fm = _cond(j, wk.ztmp, md, x, pt, wk)
+        # bracket update shared with RK4's event refinement (its next point is not used: the
+        # rule above adds the bisection safeguard)
+        a, fa, b, fb, _, side = common.illinois(a, fa, b, fb, mid, fm, side)
+    return b
+
+
+@njit(cache=True)
+def _find_event(t0, span, md, wk, x, pt):
+    """Earliest switch in ``(t0, t0 + span]`` (interval offset), or -1.0 if none: adaptive
+    checks (:func:`_next_check`, at most ``span / n_sub`` and at least ``0.1 / max|lam|``
+    apart), then :func:`_refine` on every violated element."""
+    lmax = _rate_bounds(t0, md, wk, x, pt)
+    d_min = 0.1 / lmax
+    d_max = span / wk.n_sub
+    lo = 0.0
+    for k in range(wk.zeta.shape[0]):
+        wk.zeta[k] = wk.zeta0[k]
+    _conds(wk.zeta, md, x, pt, wk)
+    for _ in range(100000):
+        tau = lo + _next_check(lo, t0, d_max, d_min, md, wk, x, pt)
+        if tau >= span * (1.0 - 1e-14):
+            tau = span
+        _zeta_at(tau, md, wk, t0, pt, wk.zeta)
+        wk.cnt[_N_CHECKS] += 1
+        for j in range(x.z.shape[0]):
+            wk.fprev[j] = wk.fcur[j]
+        if _conds(wk.zeta, md, x, pt, wk):
+            best = tau
+            for j in range(x.z.shape[0]):
+                if wk.free[j] or wk.fcur[j] <= 0.0:
+                    continue
+                b = _refine(j, lo, tau, span, t0, md, wk, x, pt)
+                if b < best:
+                    best = b
+            return best
+        lo = tau
+        if tau >= span:
+            break
+    return -1.0
+
+
+@njit(cache=True)
+def _advance(tau1, t0, md, wk, x, pt, ecum):
+    """Take the modal state ``wk.zeta`` at ``t0 + tau1`` as the state: work of the load (exact),
+    friction dissipation and slips ``z`` of the sliding elements, ``(q, v)``."""
+    q, v, z, mode = x.q, x.v, x.z, x.mode
+    n = q.shape[0]
+    n2 = 2 * n
+    zeta, xr = wk.zeta, wk.xr
+    ecum[0] += _work(tau1, md, wk, t0, pt)
+    Vs = md.V
+    for i in range(n2):
+        acc = 0.0
+        for k in range(n2):
+            acc += (Vs[i, k] * zeta[k]).real
+        xr[i] = acc
+    for j in range(z.shape[0]):
+        s_new = 0.0
+        for k in range(n2):
+            s_new += (md.SVq[j, k] * zeta[k]).real
+        if wk.free[j]:
+            z[j] = s_new
+        elif mode[j] != 0:
+            s_old = z[j] + mode[j] * pt.tau_k[j] / pt.kt
+            ecum[1] += pt.wq[j] * mode[j] * pt.tau_k[j] * (s_new - s_old)
+            z[j] = s_new - mode[j] * pt.tau_k[j] / pt.kt
+    for i in range(n):
+        q[i] = xr[i]
+        v[i] = xr[n + i]
+
+
+@njit(cache=True)
+def _apply_events(t_ev, md, wk, x, pt, tally):
+    """Switch every element whose event function is violated at ``wk.zeta`` (time ``t_ev``)."""
+    for j in range(x.z.shape[0]):
+        if wk.free[j]:
+            continue
+        if _cond(j, wk.zeta, md, x, pt, wk) > 0.0:
+            s = 0.0
+            if x.mode[j] == 0:
+                for k in range(wk.zeta.shape[0]):
+                    s += (md.SVq[j, k] * wk.zeta[k]).real
+            common.apply_switch(j, t_ev, s, x, pt, tally)
+
+
+@njit(cache=True)
+def _new_work(pt, n_sub, cache_size):
+    """Empty pattern cache and scratch of a point."""
+    n = pt.Mm.shape[0]
+    nq = pt.S.shape[0]
+    n2 = 2 * n
+    C = cache_size
+    cache = PatternCache(np.full(C, -1, np.int64), np.empty((C, n2), np.complex128),
+                         np.empty((C, n2, n2), np.complex128), np.empty((C, n2, n2), np.complex128),
+                         np.empty((C, nq, n2), np.complex128), np.empty((C, nq, n2), np.complex128),
+                         np.empty((C, n2), np.complex128), np.empty((C, n2), np.complex128))
+    free = np.zeros(nq, np.bool_)
+    for j in range(nq):
+        free[j] = pt.tau_s[j] <= 0.0
+    # undamped: modes k and n + k are complex conjugate pairs -> evaluate the first half only
+    nh = n if not pt.damp else n2
+    fac = 2.0 if not pt.damp else 1.0
+    wk = ExpoWork(free, np.zeros(nq, np.bool_), np.empty(n2), np.empty(n2, np.complex128),
+                  np.empty(n2, np.complex128), np.empty(n2, np.complex128),
+                  np.empty(n2, np.complex128), np.empty(n), np.empty(n2), np.empty(n2),
+                  np.empty(n2, np.complex128), np.empty(nq), np.empty(nq), np.empty(nq),
+                  np.empty(nq), np.empty(nq), np.zeros(4, np.int64), nh, fac, n_sub)
+    return cache, wk
+
+
+@njit(cache=True, inline="always")
+def _modes(cache, slot):
+    return Modes(cache.lam[slot], cache.V[slot], cache.Vi[slot], cache.SVq[slot],
+                 cache.SVv[slot], cache.cg[slot], cache.gam[slot])
+
+
+@njit(cache=True)
+def _pattern_slot(cache, wk, x, pt):
+    """Cache slot of the current stick pattern (decomposed on a miss)."""
+    key = _pattern_key(wk, x)
+    nf = wk.cnt[_FILLED]
+    for c in range(nf):
+        if cache.keys[c] == key:
+            return c
+    return _fill_slot(key, cache, wk, pt)
+
+
+@njit(cache=True)
+def _step(t0, t_end, slot, cache, wk, x, pt, tally):
+    """Advance from ``t0`` to the step end ``t_end`` through every switch in between (Zeno
+    guard: at most ``10 nq + 10`` switches, then the state is accepted on the grid).  Returns
+    ``(t0, slot)`` for the next step (``slot = -1``: the pattern must be looked up)."""
+    nq = x.z.shape[0]
+    n2 = wk.zeta.shape[0]
+    guard = 0
+    while True:
+        if slot < 0:
+            slot = _pattern_slot(cache, wk, x, pt)
+            _project(_modes(cache, slot), wk, x, pt)
+        md = _modes(cache, slot)
+        span = t_end - t0
+        ev_tau = _find_event(t0, span, md, wk, x, pt)
+        tau1 = span if ev_tau < 0 else ev_tau
+        if ev_tau >= 0:
+            _zeta_at(tau1, md, wk, t0, pt, wk.zeta)
+        if wk.nh < n2:
+            for k in range(wk.nh):
+                wk.zeta[wk.nh + k] = np.conj(wk.zeta[k])
+        _advance(tau1, t0, md, wk, x, pt, tally.ecum)
+        if ev_tau < 0:
+            # no event: continue in the same pattern from t_end
+            for k in range(n2):
+                wk.zeta0[k] = wk.zeta[k]
+            return t_end, slot
+        t_ev = t0 + tau1
+        _apply_events(t_ev, md, wk, x, pt, tally)
+        wk.cnt[_N_EVENTS] += 1
+        guard += 1
+        t0 = t_ev
+        slot = -1
+        if guard > 10 * nq + 10:
+            # Zeno guard: accept the state, resume on the grid
+            return t_end, slot
+
+
+@njit(cache=True)
+def expo_point(p, pt, sched, x0, n_sub, cache_size, out):
+    """Integrate point ``p`` (the step contract of :mod:`beamsim.kernels`); ``n_sub``: checks
+    per step at least, ``cache_size``: stick patterns whose decomposition is kept."""
+    x, tally, e0 = common.start_point(p, x0, pt, sched, out)
+    cache, wk = _new_work(pt, n_sub, cache_size)
+    n_per = sched.n_per
+    slot = -1
+    t0 = 0.0
+    for step in range((sched.n_trans + sched.n_rec) * n_per):
+        k_step = step + 1
+        t_end = k_step * sched.h
+        t0, slot = _step(t0, t_end, slot, cache, wk, x, pt, tally)
+        common.post_step(t_end, x, pt, tally, k_step > sched.n_trans * n_per, False)
+        if pt.damp:
+            # damping dissipation: remainder of the energy identity (docs/model.md)
+            em_, _ = common.energy(x.q, x.v, x.z, pt)
+            tally.ecum[2] = tally.ecum[0] - tally.ecum[1] - (em_ - e0)
+        if common.end_of_step(p, k_step, t_end, x, tally.ecum, pt, sched, out):
+            break
+    common.final_flags(p, tally.stats, out, x)
+    out.flags[p, FLAG_N_PATTERNS] = wk.cnt[_N_EIG]
+    out.flags[p, FLAG_N_EVENTS] = wk.cnt[_N_EVENTS]
+    out.flags[p, FLAG_N_CHECKS] = wk.cnt[_N_CHECKS]
+
+
+@njit(cache=True, parallel=True)
+def run_batch(stk, steps, n_sub, cache_size, out):
+    """expo over the points of a batch (full damping matrix)."""
+    for p in prange(stk.f0.shape[0]):
+        expo_point(p, point_at(stk, p, False), schedule_at(steps, p), stk.x0[p], n_sub,
+                   cache_size, out)
