@@ -36,9 +36,9 @@ continuous state, so a copy can stay stuck inside the band ``mu_k p < |tau| < mu
 drive's element slides: a mismatch that no coupling of the continuous variables removes (the
 error settles at ``~ s'/d``) and that a rescaling would make inconsistent.  A copy within
 ``10 e0`` of the drive (after any rescaling) therefore takes the drive's stick/slip state
-(:func:`beamsim.kernels.copies.adopt_modes`): in the linear regime the two switch within the same step, so this only
-acts on persistent mismatches, moving the copy's switch by less than the time its own would
-have taken (an error of the order of the separation).
+(:func:`beamsim.kernels.copies.adopt_modes`): in the linear regime the two switch within the
+same step, so this only acts on persistent mismatches, moving the copy's switch by less than
+the time its own would have taken (an error of the order of the separation).
 """
 
 from __future__ import annotations

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from beamsim.two_layer import check_nonnegative, check_positive
+from beamsim.two_layer import check_nonnegative, check_positive, set_fields
 
 __all__ = ["LAWS", "STICK_SLIP", "FULL_SLIP", "STRIBECK", "Friction", "smooth_traction",
            "law_code"]
@@ -102,13 +102,7 @@ class Friction:
                 raise ValueError("p_profile must be finite")
             if np.any(arr < 0):
                 raise ValueError("p_profile must be >= 0 (interlayer pressure cannot be negative)")
-        object.__setattr__(self, "mu_s", mu_s)
-        object.__setattr__(self, "mu_k", mu_k)
-        object.__setattr__(self, "p", p)
-        object.__setattr__(self, "F_c", fc)
-        object.__setattr__(self, "F_s", fs)
-        object.__setattr__(self, "v_s", vs)
-        object.__setattr__(self, "k_v", kv)
+        set_fields(self, mu_s=mu_s, mu_k=mu_k, p=p, F_c=fc, F_s=fs, v_s=vs, k_v=kv)
 
     @property
     def code(self) -> int:
@@ -126,12 +120,3 @@ class Friction:
             fc = self.F_c * shape
             fs = self.F_s * shape
         return tau_s, tau_k, fc, fs
-
-    def max_slope(self, eps: float) -> float:
-        """Upper bound of d tau / d v for the regularised laws (per unit pressure-shape)."""
-        if self.law == "stick-slip":
-            return 0.0
-        fs = self.mu_k * self.p if self.law == "full-slip" else self.F_s
-        fc = fs if self.law == "full-slip" else self.F_c
-        # d/dv [(fc + (fs-fc) e^{-|v|/vs}) tanh(v/eps)] <= fs/eps (at v=0); plus kv
-        return fs / eps + (0.0 if self.law == "full-slip" else self.k_v) + 0.0 * fc

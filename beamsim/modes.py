@@ -474,7 +474,8 @@ def _mode_shape(lam: float, k2: float, beta: float, left: str, right: str):
     _, sv, vh = np.linalg.svd(bmat)
     c = vh[-1].conj()
     if sv[-1] > 1e-6 * sv[0]:
-        raise RuntimeError(f"boundary matrix is not singular at lam={lam:.6g} (s_min/s_max={sv[-1]/sv[0]:.2e})")
+        raise RuntimeError(f"boundary matrix is not singular at lam={lam:.6g} "
+                           f"(s_min/s_max={sv[-1]/sv[0]:.2e})")
     coef_w = c * v[0]
     coef_u = c * v[4]
     # make the shape real: rotate the global phase so the largest sample is real

@@ -12,8 +12,14 @@ import scipy.linalg as sla
 
 from beamsim.friction import Friction
 from beamsim.kernels.bundles import PointStack
-from beamsim.two_layer import (Geometry, TwoLayerModel, build_model, check_nonnegative,
-                               check_positive, pressure_at)
+from beamsim.two_layer import (
+    Geometry,
+    TwoLayerModel,
+    build_model,
+    check_nonnegative,
+    check_positive,
+    pressure_at,
+)
 
 __all__ = ["PreparedPoint", "prepare_point", "period_steps", "stack_points", "POINT_KEYS"]
 

@@ -42,6 +42,18 @@ STAT_W_ALL = 5             #: as STAT_W_RECORD over the whole run
 N_STATS = 6
 
 
+def flag_fields(flags: np.ndarray) -> dict:
+    """The :class:`SimResult` fields held in a point's ``flags`` row."""
+    div = bool(flags[FLAG_DIVERGED])
+    return dict(E_mech0=float(flags[FLAG_E_MECH0]), diverged=div,
+                t_diverged=float(flags[FLAG_T_DIVERGED]) if div else np.nan,
+                slipped=bool(flags[FLAG_SLIPPED]), t_first_slip=float(flags[FLAG_T_FIRST_SLIP]),
+                stick_fraction=float(flags[FLAG_STICK_FRACTION]),
+                stick_fraction_all=float(flags[FLAG_STICK_FRACTION_ALL]),
+                n_patterns=int(flags[FLAG_N_PATTERNS]), n_events=int(flags[FLAG_N_EVENTS]),
+                n_checks=int(flags[FLAG_N_CHECKS]))
+
+
 @dataclass
 class SimResult:
     """Result of one parameter point (all times and quantities dimensionless, docs/model.md).

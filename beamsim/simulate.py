@@ -37,10 +37,7 @@ import numpy as np
 from beamsim.kernels import expo, newmark, rk4
 from beamsim.kernels.bundles import Outputs, Schedule
 from beamsim.point import PreparedPoint, period_steps, prepare_point, stack_points
-from beamsim.results import (ENERGY_COLUMNS, FLAG_DIVERGED, FLAG_E_MECH0, FLAG_N_CHECKS,
-                             FLAG_N_EVENTS, FLAG_N_PATTERNS, FLAG_SLIPPED, FLAG_STICK_FRACTION,
-                             FLAG_STICK_FRACTION_ALL, FLAG_T_DIVERGED, FLAG_T_FIRST_SLIP, N_FLAGS,
-                             TIP_COLUMNS, BatchResult, SimResult)
+from beamsim.results import ENERGY_COLUMNS, N_FLAGS, TIP_COLUMNS, BatchResult, SimResult, flag_fields
 from beamsim.two_layer import check_int, check_positive
 
 __all__ = ["simulate", "simulate_batch", "SimResult", "BatchResult", "prepare_point",
@@ -126,7 +123,6 @@ def _outputs(P: int, n: int, nq: int, n_rec: int, n_dense: int, dense_full: bool
 def _result(i: int, pp: PreparedPoint, method: str, sched: Schedule, out: Outputs,
             dpp: int) -> SimResult:
     T = 2 * math.pi / pp.omega
-    flags = out.flags[i]
     dt = de = None
     if dpp > 0:
         dt = np.arange(out.dense.shape[1]) * (T / dpp)
@@ -137,13 +133,7 @@ def _result(i: int, pp: PreparedPoint, method: str, sched: Schedule, out: Output
         steps_per_period=int(sched.n_per[i]), method=method,
         t_poincare=(sched.n_trans + np.arange(sched.n_rec + 1)) * T,
         poincare_state=out.pc_state[i], poincare_tip=out.pc_tip[i], energy=out.pc_energy[i],
-        E_mech0=float(flags[FLAG_E_MECH0]), diverged=bool(flags[FLAG_DIVERGED]),
-        t_diverged=float(flags[FLAG_T_DIVERGED]) if flags[FLAG_DIVERGED] else np.nan,
-        slipped=bool(flags[FLAG_SLIPPED]), t_first_slip=float(flags[FLAG_T_FIRST_SLIP]),
-        stick_fraction=float(flags[FLAG_STICK_FRACTION]),
-        stick_fraction_all=float(flags[FLAG_STICK_FRACTION_ALL]),
-        n_patterns=int(flags[FLAG_N_PATTERNS]), n_events=int(flags[FLAG_N_EVENTS]),
-        n_checks=int(flags[FLAG_N_CHECKS]), dense_t=dt, dense=de, final_state=out.final[i])
+        dense_t=dt, dense=de, final_state=out.final[i], **flag_fields(out.flags[i]))
 
 
 def simulate_batch(points, *, n_transient: int = 50, n_record: int = 50,

@@ -41,7 +41,6 @@ __all__ = [
 ]
 
 AXIAL_RTOL = 1e-13
-SLIP_U_TERMS = True
 
 BCS = ("clamped-free", "clamped-clamped", "pinned-pinned")
 
@@ -69,6 +68,12 @@ def check_nonnegative(name: str, value) -> float:
     if v < 0.0:
         raise ValueError(f"{name} must be >= 0, got {value!r}")
     return v
+
+
+def set_fields(obj, **values) -> None:
+    """Store normalised values on a frozen dataclass instance (from its ``__post_init__``)."""
+    for name, value in values.items():
+        object.__setattr__(obj, name, value)
 
 
 def check_int(name: str, value, minimum: int = 1) -> int:
@@ -106,15 +111,13 @@ class Geometry:
     interface_damping : ``zeta_t``, the damping of the interface (penalty) modes, from a
         dashpot in parallel with every Jenkins element (stick and slip): ``T_visc = c_t s'``
         with ``c_t = 2 zeta_t k_t / omega_max_stuck`` (stiffness-proportional on the
-        interface springs).  (A dashpot acting only while an element sticks -- a Kelvin-Voigt
-        element in series with the slider -- needs the slip criterion on the total traction
-        and an extra relaxation state in slip; with the dashpot simply switched off in slip
-        the stick -> slip traction jump broke step convergence: 2-4e-2 after 60 periods.)  A stuck mode n gets
-        ``zeta_n ~ zeta_t (omega_n / omega_max) e_n`` (``e_n``: its share of strain energy in
-        the interface springs): the structural modes essentially none (1e-6 to 3e-4 for the
-        default beam at zeta_t = 0.5), the fastest mode ``zeta_t e_max`` (0.106).  It removes the undamped ringing of the penalty springs' own
-        modes (an artefact of the elastic-stick model: the real stuck interface is rigid),
-        which every stick/slip switch excites (docs/model.md).  0 = none (the paper).
+        interface springs).  A stuck mode n gets ``zeta_n ~ zeta_t (omega_n / omega_max) e_n``
+        (``e_n``: its share of strain energy in the interface springs), so the structural
+        modes are left almost undamped and the fastest (penalty) modes are damped.  It removes
+        the undamped ringing of the penalty springs' own modes (an artefact of the
+        elastic-stick model: the real stuck interface is rigid), which every stick/slip switch
+        excites.  Why parallel and not stick-only, and the measured modal damping:
+        docs/model.md.  0 = none (the paper).
     bc : end conditions of the arch modes (the paper: clamped-free).
     alpha_modes : thickness of the single layer whose modes are the basis
         (``None`` -> ``(alpha1 + alpha2) / 2``).
@@ -163,15 +166,10 @@ class Geometry:
         object.__setattr__(self, "interface_damping", zt)
         if self.bc not in BCS:
             raise ValueError(f"bc must be one of {BCS}, got {self.bc!r}")
-        am = 0.5 * (a1 + a2) if self.alpha_modes is None else check_positive("alpha_modes", self.alpha_modes)
-        object.__setattr__(self, "alpha1", a1)
-        object.__setattr__(self, "alpha2", a2)
-        object.__setattr__(self, "beta", beta)
-        object.__setattr__(self, "n_modes", n)
-        object.__setattr__(self, "k_t", kt)
-        object.__setattr__(self, "n_quad", nq)
-        object.__setattr__(self, "damping", zeta)
-        object.__setattr__(self, "alpha_modes", am)
+        am = (0.5 * (a1 + a2) if self.alpha_modes is None
+              else check_positive("alpha_modes", self.alpha_modes))
+        set_fields(self, alpha1=a1, alpha2=a2, beta=beta, n_modes=n, k_t=kt, n_quad=nq,
+                   damping=zeta, alpha_modes=am)
 
 
 #: modes supplied from outside (the workflow's per-geometry cache), keyed by
@@ -262,8 +260,6 @@ class TwoLayerModel:
             names += [f"d{lay}_{i+1}" for i in range(m)]
         return names
 
-    tip_names = ("w_tip", "u1_tip", "u2_tip", "load_point")
-
     # ---- derived matrices
     @property
     def K_interface(self) -> np.ndarray:
@@ -324,12 +320,6 @@ class TwoLayerModel:
         with np.errstate(divide="ignore"):
             ratio = np.where(tau > 0, mu_s * pj / np.where(tau > 0, tau, 1.0), np.inf)
         return float(0.5 * ratio.min())
-
-    def tip_response(self, q: np.ndarray) -> np.ndarray:
-        return self.tip @ q
-
-    def slip(self, q: np.ndarray) -> np.ndarray:
-        return self.S @ q
 
     def mechanical_energy(self, q, v, z=None) -> float:
         e = 0.5 * v @ self.M @ v + 0.5 * q @ self.K @ q
@@ -448,12 +438,8 @@ def build_model(geom: Geometry) -> TwoLayerModel:
     Bq0 = T.T @ Bq0
     S = np.zeros((geom.n_quad, n))
     S[:, ia] = 0.5 * (a1 + a2) * Wq1.T
-    if SLIP_U_TERMS:
-        S[:, iu1] = (1.0 - 0.5 * a1) * Bq0.T
-        S[:, iu2] = -(1.0 + 0.5 * a2) * Bq0.T
-    else:
-        S[:, iu1] = Bq0.T
-        S[:, iu2] = -Bq0.T
+    S[:, iu1] = (1.0 - 0.5 * a1) * Bq0.T
+    S[:, iu2] = -(1.0 + 0.5 * a2) * Bq0.T
 
     # tip
     tb = np.array([beta])

@@ -14,10 +14,33 @@ import numpy as np
 from numba import njit
 
 from beamsim.kernels.bundles import State, Tally
-from beamsim.results import (FLAG_DIVERGED, FLAG_E_MECH0, FLAG_SLIPPED, FLAG_STICK_FRACTION,
-                             FLAG_STICK_FRACTION_ALL, FLAG_T_DIVERGED, FLAG_T_FIRST_SLIP, N_STATS,
-                             STAT_SLIPPED, STAT_STUCK_W_ALL, STAT_STUCK_W_RECORD, STAT_T_FIRST_SLIP,
-                             STAT_W_ALL, STAT_W_RECORD)
+from beamsim.results import (
+    FLAG_DIVERGED,
+    FLAG_E_MECH0,
+    FLAG_SLIPPED,
+    FLAG_STICK_FRACTION,
+    FLAG_STICK_FRACTION_ALL,
+    FLAG_T_DIVERGED,
+    FLAG_T_FIRST_SLIP,
+    N_STATS,
+    STAT_SLIPPED,
+    STAT_STUCK_W_ALL,
+    STAT_STUCK_W_RECORD,
+    STAT_T_FIRST_SLIP,
+    STAT_W_ALL,
+    STAT_W_RECORD,
+)
+
+
+@njit(cache=True, inline="always")
+def slip_and_rate(S, j, q, v):
+    """Slip ``s_j = S_j.q`` and slip rate ``s_j' = S_j.v`` of Jenkins element ``j``."""
+    s = 0.0
+    sd = 0.0
+    for k in range(q.shape[0]):
+        s += S[j, k] * q[k]
+        sd += S[j, k] * v[k]
+    return s, sd
 
 
 @njit(cache=True)
@@ -109,16 +132,11 @@ def post_step(t, x, pt, tally, inrec, update=True):
     stuck and total quadrature weight (whole run, and the recorded periods if ``inrec``)."""
     q, v, z, mode = x.q, x.v, x.z, x.mode
     S, kt, tau_s, stats = pt.S, pt.kt, pt.tau_s, tally.stats
-    n = q.shape[0]
     nq = z.shape[0]
     stuck_w = 0.0
     tot_w = 0.0
     for j in range(nq):
-        s = 0.0
-        sd = 0.0
-        for k in range(n):
-            s += S[j, k] * q[k]
-            sd += S[j, k] * v[k]
+        s, sd = slip_and_rate(S, j, q, v)
         stuck = False
         if pt.law == 0 and not update:
             stuck = mode[j] == 0

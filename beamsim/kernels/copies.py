@@ -94,7 +94,9 @@ def _new_rows(x_start, spec, c0, c1, n, nq):
     """Drive (row 0) at ``x_start``, copy ``m`` at ``x_start + offsets[c0 + m]`` with the
     drive's stick/slip state."""
     M = c1 - c0
-    Q = np.empty((M + 1, n)); V = np.empty((M + 1, n)); Z = np.empty((M + 1, nq))
+    Q = np.empty((M + 1, n))
+    V = np.empty((M + 1, n))
+    Z = np.empty((M + 1, nq))
     MODE = np.zeros((M + 1, nq), np.int64)
     for i in range(n):
         Q[0, i] = x_start[i]
@@ -112,9 +114,13 @@ def _new_rows(x_start, spec, c0, c1, n, nq):
     dd = np.zeros(M + 1)
     for m in range(M):
         dd[m + 1] = spec.d[c0 + m]
-    QN = np.empty((M + 1, n)); VN = np.empty((M + 1, n)); ZN = np.empty((M + 1, nq))
+    QN = np.empty((M + 1, n))
+    VN = np.empty((M + 1, n))
+    ZN = np.empty((M + 1, nq))
     EN = np.empty((M + 1, 3))
-    SQ = np.zeros((M + 1, 4, n)); SV = np.zeros((M + 1, 4, n)); SZ = np.zeros((M + 1, 4, nq))
+    SQ = np.zeros((M + 1, 4, n))
+    SV = np.zeros((M + 1, 4, n))
+    SZ = np.zeros((M + 1, 4, nq))
     shared = rk4.Stages(np.zeros((4, n)), np.zeros((4, n)), np.zeros((4, nq)), np.zeros((4, 3)),
                         np.empty(nq), QN[0], VN[0], ZN[0], EN[0], SQ[0], SV[0], SZ[0])
     return CopyRows(Q, V, Z, MODE, QN, VN, ZN, EN, SQ, SV, SZ, dd, np.zeros(M),

@@ -9,8 +9,8 @@ and the state obeys ``x' = A x + b + g_v F(t)``.  With the eigen-decomposition
           + f_0 \gamma_k \big(\tfrac12 e^{i\omega t_0}\psi(\lambda_k, i\omega, \tau)
           + \tfrac12 e^{-i\omega t_0}\psi(\lambda_k, -i\omega, \tau) - \phi(\lambda_k, \tau)\big)
 
-(``phi = (e^{l tau} - 1)/l``, ``psi = (e^{mu tau} - e^{l tau})/(mu - l)``).  The event functions
-are checked at adaptive points placed where no crossing can have happened before them (a bound
+(``phi = (e^{l tau} - 1)/l``, ``psi = (e^{mu tau} - e^{l tau})/(mu - l)``).  The event
+functions are checked at adaptive points placed where no crossing can have happened before them (a bound
 of their second derivative from the closed form), the earliest crossing is refined by Illinois
 with a bisection safeguard, the switches are applied and a new pattern starts.  The work of
 the load is integrated exactly; the friction dissipation follows from the slip of the sliding
@@ -118,18 +118,18 @@ def _pattern(stuck, pt):
 
 
 @njit(cache=True, inline="always")
-def _phi_e(l, tau, e):
-    """(e - 1) / l with e = exp(l tau) precomputed (series for small |l tau|)."""
-    x = l * tau
+def _phi_e(lk, tau, e):
+    """(e - 1) / lk with e = exp(lk tau) precomputed (series for small |lk tau|); lk complex."""
+    x = lk * tau
     if abs(x) < 1e-4:
         return tau * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x / 24.0)))
-    return (e - 1.0) / l
+    return (e - 1.0) / lk
 
 
 @njit(cache=True, inline="always")
-def _psi(l, mu, tau, el, emu):
-    """(exp(mu tau) - exp(l tau)) / (mu - l), given el = exp(l tau), emu = exp(mu tau)."""
-    d = mu - l
+def _psi(lk, mu, tau, el, emu):
+    """(exp(mu tau) - exp(lk tau)) / (mu - lk), given el = exp(lk tau), emu = exp(mu tau)."""
+    d = mu - lk
     if abs(d * tau) < 1e-4:
         x = d * tau
         return el * tau * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x / 24.0)))
@@ -149,11 +149,11 @@ def _zeta_at(tau, md, wk, t0, pt, out):
     eim = np.conj(eip)
     io = 1j * om
     for k in range(wk.nh):
-        l = lam[k]
-        el = np.exp(l * tau)
-        ph = _phi_e(l, tau, el)
-        psip = _psi(l, io, tau, el, eip)
-        psim = _psi(l, -io, tau, el, eim)
+        lk = lam[k]
+        el = np.exp(lk * tau)
+        ph = _phi_e(lk, tau, el)
+        psip = _psi(lk, io, tau, el, eip)
+        psim = _psi(lk, -io, tau, el, eim)
         out[k] = el * z0[k] + beta[k] * ph + f0 * gam[k] * (0.5 * ep * psip + 0.5 * em * psim - ph)
 
 
@@ -175,15 +175,15 @@ def _work(tau1, md, wk, t0, pt):
     SC = 0.0j
     SD = 0.0j
     for k in range(lam.shape[0]):
-        l = lam[k]
+        lk = lam[k]
         fg = f0 * gam[k]
-        Ak = z0[k] + beta[k] / l - fg / l - fg * 0.5 * ep / (io - l) - fg * 0.5 * em / (-io - l)
-        SB += cg[k] * (-beta[k] / l + fg / l)
-        SC += cg[k] * fg * 0.5 * ep / (io - l)
-        SD += cg[k] * fg * 0.5 * em / (-io - l)
-        el = np.exp(l * tau1)
-        total += cg[k] * Ak * (ap * _phi_e(l + io, tau1, el * eip)
-                               + am * _phi_e(l - io, tau1, el * eim) + a0 * _phi_e(l, tau1, el))
+        Ak = z0[k] + beta[k] / lk - fg / lk - fg * 0.5 * ep / (io - lk) - fg * 0.5 * em / (-io - lk)
+        SB += cg[k] * (-beta[k] / lk + fg / lk)
+        SC += cg[k] * fg * 0.5 * ep / (io - lk)
+        SD += cg[k] * fg * 0.5 * em / (-io - lk)
+        el = np.exp(lk * tau1)
+        total += cg[k] * Ak * (ap * _phi_e(lk + io, tau1, el * eip)
+                               + am * _phi_e(lk - io, tau1, el * eim) + a0 * _phi_e(lk, tau1, el))
     pp_ = _phi_e(io, tau1, eip)
     pm_ = _phi_e(-io, tau1, eim)
     total += SB * (ap * pp_ + am * pm_ + a0 * tau1)
@@ -316,12 +316,12 @@ def _rate_bounds(t0, md, wk, x, pt):
     io = 1j * om
     lmax = 0.0
     for k in range(wk.nh):
-        l = lam[k]
+        lk = lam[k]
         fg = f0 * gam[k]
-        Ck = fg * 0.5 * ep / (io - l)
-        Dk = fg * 0.5 * np.conj(ep) / (-io - l)
-        Ak = wk.zeta0[k] + wk.beta[k] / l - fg / l - Ck - Dk
-        al = abs(l)
+        Ck = fg * 0.5 * ep / (io - lk)
+        Dk = fg * 0.5 * np.conj(ep) / (-io - lk)
+        Ak = wk.zeta0[k] + wk.beta[k] / lk - fg / lk - Ck - Dk
+        al = abs(lk)
         if al > lmax:
             lmax = al
         r1[k] = al * al * abs(Ak) + om * om * (abs(Ck) + abs(Dk))

@@ -81,11 +81,7 @@ def deriv(t, q, v, z, mode, pt, dq, dv, dz, de, tau):
     dD = 0.0
     dC = 0.0
     for j in range(nq):
-        s = 0.0
-        sd = 0.0
-        for k in range(n):
-            s += S[j, k] * q[k]
-            sd += S[j, k] * v[k]
+        s, sd = common.slip_and_rate(S, j, q, v)
         if law == 0:
             tj = kt * (s - z[j])
             if mode[j] != 0:
