@@ -13,6 +13,14 @@ from collections import namedtuple
 
 from numba import njit
 
+#: njit options of a hot kernel that allocates nothing (no array is created or returned):
+#: compiled without numba's reference counting.  Every array a kernel reads out of a bundle
+#: would otherwise cost an atomic reference-count increment and decrement per call, which
+#: made the bundled kernels measurably slower than flat arguments (docs/architecture.md);
+#: the caller owns every array, so none is needed.  A LEAF kernel may call only LEAF or
+#: inlined kernels (numba compiles its callees with its flags).
+LEAF = dict(cache=True, _nrt=False)
+
 #: constant inputs of one point.  Matrices of the first-order form ``Aq = -M^-1 K``,
 #: ``Av = -M^-1 C_struct``, ``Bt = -M^-1 S^T W``, ``gv = M^-1 g``; ``S`` slip at the quadrature
 #: points, ``wq`` their weights, ``kt`` Jenkins stiffness, ``ct`` interface dashpot, ``Mm, Km,

@@ -13,7 +13,7 @@ import math
 import numpy as np
 from numba import njit
 
-from beamsim.kernels.bundles import State, Tally
+from beamsim.kernels.bundles import LEAF, State, Tally
 from beamsim.results import (
     FLAG_DIVERGED,
     FLAG_E_MECH0,
@@ -43,7 +43,7 @@ def slip_and_rate(S, j, q, v):
     return s, sd
 
 
-@njit(cache=True)
+@njit(**LEAF)
 def energy(q, v, z, pt):
     """Mechanical energy ``v.M v / 2 + q.K q / 2`` plus the elastic energy of the stuck-or-
     slipping Jenkins springs ``sum_j w_j k_t (s_j - z_j)^2 / 2`` (stick-slip law); returns
@@ -68,7 +68,7 @@ def energy(q, v, z, pt):
     return e + ei, ei
 
 
-@njit(cache=True)
+@njit(**LEAF)
 def record(row, x, ecum, pt, out, p):
     """Poincare sample ``row`` of point ``p``: state, tip response, energy ledger."""
     q = x.q
@@ -89,7 +89,7 @@ def record(row, x, ecum, pt, out, p):
     out.pc_energy[p, row, 4] = ei
 
 
-@njit(cache=True)
+@njit(**LEAF)
 def dense_sample(row, q, v, tip, dense, p):
     """Dense-history sample ``row``: tip response, and ``(q, v)`` if the history is full."""
     n = q.shape[0]
@@ -125,7 +125,7 @@ def note_first_slip(stats, t):
         stats[STAT_T_FIRST_SLIP] = t
 
 
-@njit(cache=True)
+@njit(**LEAF)
 def post_step(t, x, pt, tally, inrec, update=True):
     """Return mapping of the Jenkins elements after a step (``update``; the implicit
     integrators map inside their step and pass False) and the slip statistics: first slip,
@@ -173,7 +173,7 @@ def post_step(t, x, pt, tally, inrec, update=True):
         stats[STAT_W_RECORD] += tot_w
 
 
-@njit(cache=True)
+@njit(**LEAF)
 def diverged(q, v, lim):
     """True if some ``|q_i|`` exceeds ``lim`` or some ``v_i`` is not finite."""
     for i in range(q.shape[0]):
@@ -182,7 +182,7 @@ def diverged(q, v, lim):
     return False
 
 
-@njit(cache=True)
+@njit(**LEAF)
 def end_of_step(p, k, t, x, ecum, pt, sched, out):
     """Bookkeeping after step ``k`` (time ``t``) of every integrator: divergence flag
     (returns True: stop this point), Poincare record at period ends, dense output."""
@@ -199,7 +199,7 @@ def end_of_step(p, k, t, x, ecum, pt, sched, out):
     return False
 
 
-@njit(cache=True)
+@njit(**LEAF)
 def final_flags(p, stats, out, x):
     """Slip indicators of a finished point (see :class:`beamsim.results.SimResult`) and its
     final state ``(q, v, z, mode)`` (the restart point of :mod:`beamsim.coupled_copies`)."""
@@ -276,7 +276,7 @@ def illinois(a, ga, b, gb, th, gm, side):
     return a, ga, b, gb, th, side
 
 
-@njit(cache=True)
+@njit(**LEAF)
 def apply_switch(j, t, s, x, pt, tally):
     """Switch element ``j`` (slip ``s``) at a located event at time ``t``: stuck -> slipping in
     the direction of its traction (:func:`start_slip`), slipping -> stuck (``z`` frozen)."""

@@ -10,7 +10,7 @@ import numpy as np
 from numba import njit, prange
 
 from beamsim.kernels import common, rk4
-from beamsim.kernels.bundles import State, Tally, point_at
+from beamsim.kernels.bundles import LEAF, State, Tally, point_at
 from beamsim.results import N_STATS
 
 #: a point's copies: initial offsets ``(M, 2 n + n_quad)``, couplings ``d`` ``(M,)``, which are
@@ -30,7 +30,7 @@ CopyRows = namedtuple("CopyRows", ("Q", "V", "Z", "MODE", "QN", "VN", "ZN", "EN"
                                    "SZ", "dd", "logacc", "alive", "shared"))
 
 
-@njit(cache=True)
+@njit(**LEAF)
 def error(q, v, yq, yv, inv_scale):
     """Scaled RMS error of ``(yq, yv)`` from ``(q, v)`` over the ``2 n`` components."""
     n = q.shape[0]
@@ -42,7 +42,7 @@ def error(q, v, yq, yv, inv_scale):
     return math.sqrt(acc / (2 * n))
 
 
-@njit(cache=True)
+@njit(**LEAF)
 def adopt_modes(x, y, S):
     """Give a copy ``y`` the drive's (``x``) stick/slip state, element by element, together with
     the drive's elastic strain of that element: ``y_z = s_y - (s_x - z_x)``, so the element's
@@ -67,7 +67,7 @@ def adopt_modes(x, y, S):
     return changed
 
 
-@njit(cache=True)
+@njit(**LEAF)
 def rescale(fac, x, y):
     """Move ``y`` along ``y - x`` to ``x + fac (y - x)`` on ``(q, v, z)``."""
     for i in range(x.q.shape[0]):
@@ -127,16 +127,13 @@ def _new_rows(x_start, spec, c0, c1, n, nq):
                     np.ones(M + 1, np.bool_), shared)
 
 
-@njit(cache=True)
+@njit(**LEAF, inline="always")
 def _drive_step(t, h, rows, pt, tally, seg):
     """The drive's step, exactly as the reference run steps it (its trajectory does not depend
     on the copies), its substeps recorded in ``seg``; returns their number."""
     x = _row(rows, 0)
     w = _row_stages(rows, 0)
-    seg.q[0] = x.q
-    seg.v[0] = x.v
-    seg.z[0] = x.z
-    seg.m[0] = x.mode
+    rk4.store_substep(seg, 0, x)
     if rk4.try_full_step(t, h, x, pt, tally.ecum, w, 0.0, w):
         seg.t[0] = t
         seg.t[1] = t + h
@@ -145,7 +142,7 @@ def _drive_step(t, h, rows, pt, tally, seg):
     return nseg
 
 
-@njit(cache=True)
+@njit(**LEAF, inline="always")
 def _copy_step(r, t, h, nseg, rows, pt, tally, seg, cp):
     """Copy ``r`` follows the drive substep by substep, splitting further at its own switches;
     a coupled copy integrates each drive substep alongside (``cp``: scratch of the drive's
@@ -172,7 +169,21 @@ def _copy_step(r, t, h, nseg, rows, pt, tally, seg, cp):
         rk4.located_step(ts, hk, h, y, pt, tally, w, ck, seg, False)
 
 
-@njit(cache=True)
+@njit(**LEAF)
+def _step_rows(step, h, n_per, rows, pt, tally, seg, cp):
+    """Step ``step`` of the drive and every live copy, then their return mappings."""
+    t = (step % n_per) * h
+    nseg = _drive_step(t, h, rows, pt, tally, seg)
+    for r in range(1, rows.alive.shape[0]):
+        if rows.alive[r]:
+            _copy_step(r, t, h, nseg, rows, pt, tally, seg, cp)
+    tn = (step + 1) * h
+    for r in range(rows.alive.shape[0]):
+        if rows.alive[r]:
+            common.post_step(tn, _row(rows, r), pt, tally, False)
+
+
+@njit(**LEAF)
 def _measure(p, c0, step, rows, spec, band, n_per, S, log_err):
     """After a step: each copy's scaled error, recorded (with the carried rescaling factors) at
     period ends; a copy outside the band (or flagged for period renormalisation at a period
@@ -224,15 +235,7 @@ def copies_task(p, c0, c1, pt, sch, x_start, spec, band, log_err):
                       np.zeros((4, nq)))
     h, n_per = sch.h, sch.n_per
     for step in range(sch.n_periods * n_per):
-        t = (step % n_per) * h
-        nseg = _drive_step(t, h, rows, pt, tally, seg)
-        for r in range(1, c1 - c0 + 1):
-            if rows.alive[r]:
-                _copy_step(r, t, h, nseg, rows, pt, tally, seg, cp)
-        tn = (step + 1) * h
-        for r in range(c1 - c0 + 1):
-            if rows.alive[r]:
-                common.post_step(tn, _row(rows, r), pt, tally, False)
+        _step_rows(step, h, n_per, rows, pt, tally, seg, cp)
         if common.diverged(x.q, x.v, sch.div_limit):
             for m in range(c1 - c0):
                 for k in range(log_err.shape[2]):

@@ -28,7 +28,7 @@ import numpy as np
 from numba import njit, prange
 
 from beamsim.kernels import common
-from beamsim.kernels.bundles import point_at, schedule_at
+from beamsim.kernels.bundles import LEAF, point_at, schedule_at
 from beamsim.results import FLAG_N_CHECKS, FLAG_N_EVENTS, FLAG_N_PATTERNS
 
 #: eigen-decompositions of ``C`` stick patterns: pattern bit keys, eigenvalues ``lam``, ``V``,
@@ -136,7 +136,7 @@ def _psi(lk, mu, tau, el, emu):
     return (emu - el) / d
 
 
-@njit(cache=True)
+@njit(**LEAF, inline="always")
 def _zeta_at(tau, md, wk, t0, pt, out):
     """Modal state at ``t0 + tau`` of the interval that started at ``t0`` in ``wk.zeta0`` (only
     the first ``wk.nh`` terms: undamped systems store conjugate pairs k, n + k, and the second
@@ -157,7 +157,7 @@ def _zeta_at(tau, md, wk, t0, pt, out):
         out[k] = el * z0[k] + beta[k] * ph + f0 * gam[k] * (0.5 * ep * psip + 0.5 * em * psim - ph)
 
 
-@njit(cache=True)
+@njit(**LEAF)
 def _work(tau1, md, wk, t0, pt):
     """Exact ``int_0^tau1 F(t0 + tau) g.v(tau) dtau`` for the interval solution."""
     f0, om = pt.f0, pt.om
@@ -192,7 +192,7 @@ def _work(tau1, md, wk, t0, pt):
     return total.real
 
 
-@njit(cache=True)
+@njit(**LEAF, inline="always")
 def _cond(j, zeta, md, x, pt, wk):
     """Event function of element j at the modal state ``zeta`` (> 0: the current stick/slip
     state is violated)."""
@@ -207,7 +207,7 @@ def _cond(j, zeta, md, x, pt, wk):
     return -x.mode[j] * wk.fac * sd
 
 
-@njit(cache=True)
+@njit(**LEAF, inline="always")
 def _conds(zeta, md, x, pt, wk):
     """All event functions at the modal state ``zeta`` into ``wk.fcur`` (slips and slip rates
     into ``wk.sbuf, wk.sdbuf``); returns True if any is violated."""
@@ -235,7 +235,7 @@ def _conds(zeta, md, x, pt, wk):
     return hit
 
 
-@njit(cache=True)
+@njit(**LEAF)
 def _pattern_key(wk, x):
     """Bit key of the current stick pattern (bit j: element j stuck); sets ``wk.stuck``."""
     key = 0
@@ -304,7 +304,7 @@ def _project(md, wk, x, pt):
         wk.beta[k] = acc2
 
 
-@njit(cache=True)
+@njit(**LEAF, inline="always")
 def _rate_bounds(t0, md, wk, x, pt):
     """Bounds of the second derivative of every event function on the interval from ``t0``
     (stuck: ``k_t |s_j''|``, slipping: ``|s_j'''|``) into ``wk.rate``, from the closed form
@@ -339,7 +339,7 @@ def _rate_bounds(t0, md, wk, x, pt):
     return lmax
 
 
-@njit(cache=True)
+@njit(**LEAF, inline="always")
 def _next_check(lo, t0, d_max, d_min, md, wk, x, pt):
     """Distance from the check at ``lo`` to the next one: the first possible root of
     ``f + f' d + M2 d^2 / 2`` over the unviolated elements (exact ``f'``, ``M2`` from
@@ -374,7 +374,7 @@ def _next_check(lo, t0, d_max, d_min, md, wk, x, pt):
     return dlt
 
 
-@njit(cache=True)
+@njit(**LEAF, inline="always")
 def _refine(j, lo, tau, span, t0, md, wk, x, pt):
     """Crossing of element ``j``'s event function in ``[lo, tau]`` (Illinois, i.e. modified
     regula falsi, with every fourth and every step after the 40th a bisection); returns the
@@ -401,7 +401,7 @@ def _refine(j, lo, tau, span, t0, md, wk, x, pt):
     return b
 
 
-@njit(cache=True)
+@njit(**LEAF)
 def _find_event(t0, span, md, wk, x, pt):
     """Earliest switch in ``(t0, t0 + span]`` (interval offset), or -1.0 if none: adaptive
     checks (:func:`_next_check`, at most ``span / n_sub`` and at least ``0.1 / max|lam|``
@@ -436,7 +436,7 @@ def _find_event(t0, span, md, wk, x, pt):
     return -1.0
 
 
-@njit(cache=True)
+@njit(**LEAF)
 def _advance(tau1, t0, md, wk, x, pt, ecum):
     """Take the modal state ``wk.zeta`` at ``t0 + tau1`` as the state: work of the load (exact),
     friction dissipation and slips ``z`` of the sliding elements, ``(q, v)``."""
@@ -466,7 +466,7 @@ def _advance(tau1, t0, md, wk, x, pt, ecum):
         v[i] = xr[n + i]
 
 
-@njit(cache=True)
+@njit(**LEAF)
 def _apply_events(t_ev, md, wk, x, pt, tally):
     """Switch every element whose event function is violated at ``wk.zeta`` (time ``t_ev``)."""
     for j in range(x.z.shape[0]):
@@ -522,40 +522,48 @@ def _pattern_slot(cache, wk, x, pt):
     return _fill_slot(key, cache, wk, pt)
 
 
+@njit(**LEAF)
+def _interval(t0, t_end, slot, cache, wk, x, pt, tally):
+    """From ``t0`` in the pattern of cache slot ``slot`` to its first switch (applied) or to
+    the step end ``t_end``; returns ``(time reached, True if it is a switch)``."""
+    md = _modes(cache, slot)
+    n2 = wk.zeta.shape[0]
+    span = t_end - t0
+    ev_tau = _find_event(t0, span, md, wk, x, pt)
+    tau1 = span if ev_tau < 0 else ev_tau
+    if ev_tau >= 0:
+        _zeta_at(tau1, md, wk, t0, pt, wk.zeta)
+    if wk.nh < n2:
+        for k in range(wk.nh):
+            wk.zeta[wk.nh + k] = np.conj(wk.zeta[k])
+    _advance(tau1, t0, md, wk, x, pt, tally.ecum)
+    if ev_tau < 0:
+        # no event: continue in the same pattern from t_end
+        for k in range(n2):
+            wk.zeta0[k] = wk.zeta[k]
+        return t_end, False
+    t_ev = t0 + tau1
+    _apply_events(t_ev, md, wk, x, pt, tally)
+    wk.cnt[_N_EVENTS] += 1
+    return t_ev, True
+
+
 @njit(cache=True)
 def _step(t0, t_end, slot, cache, wk, x, pt, tally):
     """Advance from ``t0`` to the step end ``t_end`` through every switch in between (Zeno
     guard: at most ``10 nq + 10`` switches, then the state is accepted on the grid).  Returns
     ``(t0, slot)`` for the next step (``slot = -1``: the pattern must be looked up)."""
-    nq = x.z.shape[0]
-    n2 = wk.zeta.shape[0]
     guard = 0
     while True:
         if slot < 0:
             slot = _pattern_slot(cache, wk, x, pt)
             _project(_modes(cache, slot), wk, x, pt)
-        md = _modes(cache, slot)
-        span = t_end - t0
-        ev_tau = _find_event(t0, span, md, wk, x, pt)
-        tau1 = span if ev_tau < 0 else ev_tau
-        if ev_tau >= 0:
-            _zeta_at(tau1, md, wk, t0, pt, wk.zeta)
-        if wk.nh < n2:
-            for k in range(wk.nh):
-                wk.zeta[wk.nh + k] = np.conj(wk.zeta[k])
-        _advance(tau1, t0, md, wk, x, pt, tally.ecum)
-        if ev_tau < 0:
-            # no event: continue in the same pattern from t_end
-            for k in range(n2):
-                wk.zeta0[k] = wk.zeta[k]
-            return t_end, slot
-        t_ev = t0 + tau1
-        _apply_events(t_ev, md, wk, x, pt, tally)
-        wk.cnt[_N_EVENTS] += 1
+        t0, switched = _interval(t0, t_end, slot, cache, wk, x, pt, tally)
+        if not switched:
+            return t0, slot
         guard += 1
-        t0 = t_ev
         slot = -1
-        if guard > 10 * nq + 10:
+        if guard > 10 * x.z.shape[0] + 10:
             # Zeno guard: accept the state, resume on the grid
             return t_end, slot
 

@@ -67,7 +67,7 @@ def _start(x, pt, h):
     return NewmarkWork(Kb, acc, np.empty(nq, np.bool_), np.empty(nq), tau.copy())
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _solve_pattern(tn, x, pt, h, wk):
     """New coordinates at ``tn`` and the load there: the linear Newmark step solved for a trial
     stick/slip pattern (starting from the current modes), the pattern corrected where the trial
@@ -135,7 +135,7 @@ def _solve_pattern(tn, x, pt, h, wk):
     return qn, Fn
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _accept(qn, Fn, Fprev, x, pt, h, wk, ecum):
     """Take the step to ``qn``: new velocity and acceleration, Jenkins slips and modes, and the
     ledger (trapezoidal work of the load, friction work minus the change of the interface

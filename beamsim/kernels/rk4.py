@@ -19,7 +19,7 @@ from numba import njit, prange
 
 from beamsim.friction import smooth_traction
 from beamsim.kernels import common
-from beamsim.kernels.bundles import State, point_at, schedule_at
+from beamsim.kernels.bundles import LEAF, State, point_at, schedule_at
 from beamsim.results import FLAG_N_EVENTS
 
 #: scratch of one RK4 step: stage derivatives ``kq, kv, kz`` and ledger rates ``ke`` (4 rows),
@@ -58,6 +58,17 @@ def new_segments(ns, n, nq):
     """:data:`Segments` room for ``ns`` substeps."""
     return Segments(np.empty(ns + 1), np.empty((ns, n)), np.empty((ns, n)), np.empty((ns, nq)),
                     np.zeros((ns, nq), np.int64))
+
+
+@njit(cache=True, inline="always")
+def store_substep(seg, k, x):
+    """``seg.q[k], seg.v[k], seg.z[k], seg.m[k] = x`` (element by element: no temporary)."""
+    for i in range(x.q.shape[0]):
+        seg.q[k, i] = x.q[i]
+        seg.v[k, i] = x.v[i]
+    for j in range(x.z.shape[0]):
+        seg.z[k, j] = x.z[j]
+        seg.m[k, j] = x.mode[j]
 
 
 @njit(cache=True, inline="always")
@@ -135,7 +146,7 @@ def _stage_state(c, q, v, z, kq, kv, kz, tq, tv, tz):
         tz[j] = z[j] + c * kz[j]
 
 
-@njit(cache=True)
+@njit(**LEAF)
 def rk4_incr(t, hs, x, pt, w, dcoup, xw):
     """One classical RK4 step of length ``hs`` from ``x`` with the stick/slip state frozen: the
     new state goes to ``(w.qn, w.vn, w.zn)``, the energy-ledger increment to ``w.en`` (``x`` is
@@ -209,7 +220,7 @@ def first_event(x, w, pt):
     return best, jb
 
 
-@njit(cache=True)
+@njit(**LEAF)
 def event_g(j, q, v, z, mode, pt):
     """Event function of element ``j`` (> 0: its stick/slip state is violated)."""
     a = 0.0
@@ -235,7 +246,7 @@ def accept(x, ecum, w):
         ecum[r] += w.en[r]
 
 
-@njit(cache=True)
+@njit(**LEAF)
 def try_full_step(t, h, x, pt, ecum, w, dcoup, xw):
     """The fast path of every RK4 step: one step of length ``h``; if no element switches inside
     it, accept it and return True, else leave ``x`` unchanged and return False (the caller
@@ -250,7 +261,7 @@ def try_full_step(t, h, x, pt, ecum, w, dcoup, xw):
     return False
 
 
-@njit(cache=True)
+@njit(**LEAF)
 def _locate(j, tl, rem, th, x, pt, w, cp, xst, xw):
     """Refine the crossing of element ``j``'s event function inside the substep
     ``(tl, tl + rem)`` from its linear estimate ``th`` (Illinois on the RK4 substep, to
@@ -273,7 +284,7 @@ def _locate(j, tl, rem, th, x, pt, w, cp, xst, xw):
     return th
 
 
-@njit(cache=True)
+@njit(**LEAF)
 def located_step(t, hs, h_tol, x, pt, tally, w, cp, seg, record):
     """Advance ``x`` from ``t`` over ``hs`` with RK4, splitting the step at every stick/slip
     switch (law 0): the earliest crossing of the linearly interpolated event functions, refined
@@ -299,10 +310,7 @@ def located_step(t, hs, h_tol, x, pt, tally, w, cp, seg, record):
     for it in range(MAX_SWITCHES_PER_STEP + 1):
         if record:
             seg.t[nseg] = tl
-            seg.q[nseg] = x.q
-            seg.v[nseg] = x.v
-            seg.z[nseg] = x.z
-            seg.m[nseg] = x.mode
+            store_substep(seg, nseg, x)
         nseg += 1
         if cp.d != 0.0:
             # the drive's substep (local state xst), whose stages enter the coupling
