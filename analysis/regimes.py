@@ -14,7 +14,7 @@ Indicators
 2. Poincare clusters (:func:`analysis.poincare.cluster_points`): number of
    single-linkage clusters, their diameter and the period of the cluster
    itinerary.
-3. 0-1 test for chaos (:func:`analysis.zero_one_test.zero_one_test`) on a
+3. 0-1 test for chaos (:func:`analysis.zero_one.zero_one_test`) on a
    scalar observable (first principal component), median ``K`` over 100 random
    ``c``.
 4. Spectral line test (:func:`analysis.poincare.spectral_lines`): growth
@@ -28,6 +28,25 @@ Indicators
    ``lambda_1`` per unit time and ``T`` the forcing period (``T = 2 pi`` in the
    nondimensional time ``tau`` of the design brief); see
    :func:`lle_per_period_from_rate`.
+
+Decision rule
+-------------
+1. *Periodic* if the period test finds ``m <= m_max``; otherwise, if the
+   cluster itinerary is periodic with period ``m`` and every cluster is a
+   point (diameter ``<= cluster_diameter_max``), periodic with that ``m``
+   (catches noise above ``period_rtol`` but below the cluster separation).
+2. Otherwise non-periodic; chaotic vs quasi-periodic.  If a stationary
+   period-``m*`` pattern carries most of the variance
+   (:func:`analysis.poincare.periodic_pattern`; banded chaos, period-m x
+   torus), the spectral growth and ``K`` used below are the larger of the
+   values for the series and for its residual after removing the pattern.
+
+   a. ``lle_per_period`` given: ``> lle_threshold`` -> chaotic, unless both
+      the spectrum shows lines and ``K <= k_chaotic`` (then quasi-periodic,
+      conflict reported); ``<= lle_threshold`` -> quasi-periodic (conflict
+      reported if spectrum and ``K`` both say chaotic).
+   b. Not given: spectrum ``lines`` -> quasi-periodic; ``broadband`` ->
+      chaotic; ``ambiguous`` -> the 0-1 test decides.
 
 Non-results
 -----------
@@ -55,7 +74,7 @@ from analysis.poincare import (
     spectral_lines,
     validate_samples,
 )
-from analysis.zero_one_test import zero_one_test
+from analysis.zero_one import zero_one_test
 
 __all__ = [
     "CHAOTIC",
@@ -67,6 +86,7 @@ __all__ = [
     "QUASI_PERIODIC",
     "UNSETTLED",
     "RegimeResult",
+    "Thresholds",
     "classify",
     "is_settled",
     "lle_per_period_from_rate",
@@ -214,6 +234,38 @@ def is_settled(
     return bool(np.all(obs <= np.maximum(rtol, c)))
 
 
+@dataclass(frozen=True)
+class Thresholds:
+    """The settings of :func:`classify` (same names and meaning as its keyword arguments)."""
+
+    m_max: int = 32
+    period_rtol: float = 0.02
+    scale_floor_rtol: float = 0.1
+    cluster_tol: float = 0.01
+    cluster_diameter_max: float = 0.05
+    max_cluster_points: int = 2000
+    lle_threshold: float = 0.02
+    growth_lines: float = 0.3
+    growth_broadband: float = 0.6
+    k_chaotic: float = 0.5
+    observable: Literal["pca"] | int = "pca"
+    zero_one_stride: int | str = "auto"
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class _Evidence:
+    """The indicators of one record: period test, clusters, and the spectral growth and 0-1
+    ``K`` actually used (the larger of series and pattern residual)."""
+
+    per: object
+    clu: object
+    pat: object
+    growth: float
+    k_val: float
+    indicators: dict
+
+
 def classify(
     poincare: ArrayLike,
     lle_per_period: float | None = None,
@@ -232,7 +284,7 @@ def classify(
     zero_one_stride: int | str = "auto",
     seed: int = 0,
 ) -> RegimeResult:
-    """Classify a post-transient stroboscopic record.
+    """Classify a post-transient stroboscopic record (decision rule: module docstring).
 
     Parameters
     ----------
@@ -252,8 +304,8 @@ def classify(
         (:func:`analysis.poincare.component_scales`).
     cluster_tol, cluster_diameter_max, max_cluster_points
         Single-linkage distance (scaled units), largest cluster diameter for
-        a cluster to count as a *point*, and number of (last) samples clustered.
-        The last ``max_cluster_points`` samples are clustered (memory O(n^2)).
+        a cluster to count as a *point*, and number of (last) samples clustered
+        (memory O(n^2)).
     lle_threshold
         ``lle_per_period > lle_threshold`` counts as clearly positive (chaos);
         ``lle_per_period <= lle_threshold`` rules chaos out.
@@ -273,64 +325,63 @@ def classify(
     -------
     RegimeResult
 
-    Decision rule
-    -------------
-    1. *Periodic* if the period test finds ``m <= m_max``; otherwise, if the
-       cluster itinerary is periodic with period ``m`` and every cluster is a
-       point (diameter ``<= cluster_diameter_max``), periodic with that ``m``
-       (catches noise above ``period_rtol`` but below the cluster separation).
-    2. Otherwise non-periodic; chaotic vs quasi-periodic.  If a stationary
-       period-``m*`` pattern carries most of the variance
-       (:func:`analysis.poincare.periodic_pattern`; banded chaos, period-m x
-       torus), the spectral growth and ``K`` used below are the larger of the
-       values for the series and for its residual after removing the pattern.
-
-       a. ``lle_per_period`` given: ``> lle_threshold`` -> chaotic, unless both
-          the spectrum shows lines and ``K <= k_chaotic`` (then quasi-periodic,
-          conflict reported); ``<= lle_threshold`` -> quasi-periodic (conflict
-          reported if spectrum and ``K`` both say chaotic).
-       b. Not given: spectrum ``lines`` -> quasi-periodic; ``broadband`` ->
-          chaotic; ``ambiguous`` -> the 0-1 test decides.
-
     Raises
     ------
     ValueError
         Invalid ``poincare`` (not 2-D, fewer than :data:`MIN_SAMPLES` rows,
         non-finite) or non-finite ``lle_per_period``.
     """
+    th = Thresholds(m_max, period_rtol, scale_floor_rtol, cluster_tol, cluster_diameter_max,
+                    max_cluster_points, lle_threshold, growth_lines, growth_broadband, k_chaotic,
+                    observable, zero_one_stride, seed)
     x = validate_samples(poincare, name="poincare", min_samples=MIN_SAMPLES)
-    if lle_per_period is not None:
-        try:
-            lle = float(lle_per_period)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"lle_per_period must be a float or None: {exc}") from exc
-        if not np.isfinite(lle):
-            raise ValueError(f"lle_per_period must be finite; got {lle_per_period!r}")
-    else:
-        lle = None
+    lle = _checked_lle(lle_per_period)
+    ev = _evidence(x, lle, th)
+    votes = _votes(ev, lle, th)
 
-    n = x.shape[0]
-    scales = component_scales(x, floor_rtol=scale_floor_rtol)
-    per = detect_period(x, m_max=m_max, rtol=period_rtol, scales=scales)
-    clu = cluster_points(
-        x, tol=cluster_tol, scales=scales, max_points=max_cluster_points, m_max=m_max
-    )
-    phi = scalar_observable(x, observable)
-    zo = zero_one_test(phi, stride=zero_one_stride, seed=seed)
+    def result(label: Label, period: int | None, reason: str) -> RegimeResult:
+        return RegimeResult(label=label, period=period, reason=reason,
+                            indicators=MappingProxyType(ev.indicators), votes=MappingProxyType(votes))
+
+    periodic = _periodic(ev, lle, th)
+    if periodic is not None:
+        return result(PERIODIC, *periodic)
+    return result(*_aperiodic(ev, votes, lle, th))
+
+
+def _checked_lle(lle_per_period) -> float | None:
+    if lle_per_period is None:
+        return None
+    try:
+        lle = float(lle_per_period)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"lle_per_period must be a float or None: {exc}") from exc
+    if not np.isfinite(lle):
+        raise ValueError(f"lle_per_period must be finite; got {lle_per_period!r}")
+    return lle
+
+
+def _evidence(x: np.ndarray, lle: float | None, th: Thresholds) -> _Evidence:
+    """Every indicator of the record (module docstring, items 1-4)."""
+    scales = component_scales(x, floor_rtol=th.scale_floor_rtol)
+    per = detect_period(x, m_max=th.m_max, rtol=th.period_rtol, scales=scales)
+    clu = cluster_points(x, tol=th.cluster_tol, scales=scales, max_points=th.max_cluster_points,
+                         m_max=th.m_max)
+    phi = scalar_observable(x, th.observable)
+    zo = zero_one_test(phi, stride=th.zero_one_stride, seed=th.seed)
     spec = spectral_lines(phi)
-    pat = periodic_pattern(x, m_max=m_max)
+    pat = periodic_pattern(x, m_max=th.m_max)
     if pat.period is not None:
-        phi_res = scalar_observable(pat.residual, observable)
+        phi_res = scalar_observable(pat.residual, th.observable)
         spec_res = spectral_lines(phi_res)
-        zo_res = zero_one_test(phi_res, stride=zero_one_stride, seed=seed)
+        zo_res = zero_one_test(phi_res, stride=th.zero_one_stride, seed=th.seed)
         growth = max(spec.growth, spec_res.growth)
         k_val = max(zo.K, zo_res.K)
     else:
         spec_res = zo_res = None
         growth, k_val = spec.growth, zo.K
-
     indicators: dict[str, float | int | None] = {
-        "n_samples": n,
+        "n_samples": x.shape[0],
         "period_test": per.period,
         "period_residual": per.best_residual,
         "n_clusters": clu.n_clusters,
@@ -347,30 +398,66 @@ def classify(
         "spectral_growth_residual": None if spec_res is None else spec_res.growth,
         "lle_per_period": lle,
     }
+    return _Evidence(per, clu, pat, growth, k_val, indicators)
 
-    # --- votes of the individual indicators
+
+def _clusters_are_points(ev: _Evidence, th: Thresholds) -> bool:
+    return ev.clu.max_diameter <= th.cluster_diameter_max
+
+
+def _votes(ev: _Evidence, lle: float | None, th: Thresholds) -> dict[str, str]:
+    """What each indicator says on its own."""
+    per, clu = ev.per, ev.clu
     votes: dict[str, str] = {}
     votes["period_test"] = f"period {per.period}" if per.period else "no period"
-    clusters_are_points = clu.max_diameter <= cluster_diameter_max
-    if clu.label_period is not None and clusters_are_points:
+    if clu.label_period is not None and _clusters_are_points(ev, th):
         votes["clusters"] = f"{clu.n_clusters} point cluster(s), itinerary period {clu.label_period}"
     else:
         votes["clusters"] = f"{clu.n_clusters} cluster(s), not a finite point set"
-    if growth < growth_lines:
+    if ev.growth < th.growth_lines:
         votes["spectrum"] = "lines"
-    elif growth > growth_broadband:
+    elif ev.growth > th.growth_broadband:
         votes["spectrum"] = "broadband"
     else:
         votes["spectrum"] = "ambiguous"
-    votes["zero_one"] = "chaotic" if k_val > k_chaotic else "regular"
+    votes["zero_one"] = "chaotic" if ev.k_val > th.k_chaotic else "regular"
     if lle is None:
         votes["lle"] = "not given"
-    elif lle > lle_threshold:
+    elif lle > th.lle_threshold:
         votes["lle"] = "positive"
     else:
         votes["lle"] = "non-positive"
+    return votes
 
-    facts = f"spectral growth {growth:.2f} ({votes['spectrum']}), 0-1 test K={k_val:.2f}"
+
+def _periodic(ev: _Evidence, lle: float | None, th: Thresholds) -> tuple[int, str] | None:
+    """Rule 1: ``(m, reason)`` of a periodic record, else ``None``."""
+    per, clu = ev.per, ev.clu
+    if per.period is not None:
+        m = per.period
+        why = (
+            f"x[i+{m}] matches x[i] for all i within {per.best_residual:.1e} of the "
+            f"spread (tolerance {th.period_rtol:g}); {clu.n_clusters} Poincare cluster(s)"
+        )
+    elif clu.label_period is not None and _clusters_are_points(ev, th):
+        m = clu.label_period
+        why = (
+            f"points form {clu.n_clusters} tight clusters (diameter {clu.max_diameter:.1e} "
+            f"of the spread) visited with period {m}; sample-wise period test failed "
+            f"(residual {per.best_residual:.2g} > {th.period_rtol:g}), noise suspected"
+        )
+    else:
+        return None
+    if lle is not None and lle > th.lle_threshold:
+        why += f"; CONFLICT: lambda_1={lle:.3g}/period > {th.lle_threshold:g} ignored"
+    return m, f"period {m}: {why}"
+
+
+def _aperiodic(ev: _Evidence, votes: dict[str, str], lle: float | None,
+               th: Thresholds) -> tuple[Label, None, str]:
+    """Rule 2: quasi-periodic or chaotic, ``(label, None, reason)``."""
+    facts = f"spectral growth {ev.growth:.2f} ({votes['spectrum']}), 0-1 test K={ev.k_val:.2f}"
+    pat = ev.pat
     if pat.period is not None:
         facts += (
             f" (larger of the series and its residual after removing the period-"
@@ -378,66 +465,23 @@ def classify(
         )
     if lle is not None:
         facts += f"; lambda_1={lle:.3g}/period"
-
-    def result(label: Label, period: int | None, reason: str) -> RegimeResult:
-        return RegimeResult(
-            label=label,
-            period=period,
-            reason=reason,
-            indicators=MappingProxyType(indicators),
-            votes=MappingProxyType(votes),
-        )
-
-    # --- 1. periodic
-    m: int | None = None
-    if per.period is not None:
-        m = per.period
-        why = (
-            f"x[i+{m}] matches x[i] for all i within {per.best_residual:.1e} of the "
-            f"spread (tolerance {period_rtol:g}); {clu.n_clusters} Poincare cluster(s)"
-        )
-    elif clu.label_period is not None and clusters_are_points:
-        m = clu.label_period
-        why = (
-            f"points form {clu.n_clusters} tight clusters (diameter {clu.max_diameter:.1e} "
-            f"of the spread) visited with period {m}; sample-wise period test failed "
-            f"(residual {per.best_residual:.2g} > {period_rtol:g}), noise suspected"
-        )
-    if m is not None:
-        if lle is not None and lle > lle_threshold:
-            why += f"; CONFLICT: lambda_1={lle:.3g}/period > {lle_threshold:g} ignored"
-        return result(PERIODIC, m, f"period {m}: {why}")
-
-    # --- 2. quasi-periodic vs chaotic
-    nonper = f"no period <= {m_max} (best residual {per.best_residual:.2g})"
+    nonper = f"no period <= {th.m_max} (best residual {ev.per.best_residual:.2g})"
+    thr = th.lle_threshold
+    if lle is not None and lle > thr:
+        if votes["spectrum"] == "lines" and votes["zero_one"] == "regular":
+            return (QUASI_PERIODIC, None,
+                    f"{nonper}; CONFLICT: lambda_1={lle:.3g}/period > {thr:g} but "
+                    f"discrete spectrum and regular 0-1 test ({facts}); labelled by the data")
+        return CHAOTIC, None, f"{nonper}; lambda_1={lle:.3g}/period > {thr:g} ({facts})"
     if lle is not None:
-        if lle > lle_threshold:
-            if votes["spectrum"] == "lines" and votes["zero_one"] == "regular":
-                return result(
-                    QUASI_PERIODIC,
-                    None,
-                    f"{nonper}; CONFLICT: lambda_1={lle:.3g}/period > {lle_threshold:g} but "
-                    f"discrete spectrum and regular 0-1 test ({facts}); labelled by the data",
-                )
-            return result(
-                CHAOTIC,
-                None,
-                f"{nonper}; lambda_1={lle:.3g}/period > {lle_threshold:g} ({facts})",
-            )
         note = ""
         if votes["spectrum"] == "broadband" and votes["zero_one"] == "chaotic":
             note = "; CONFLICT: broadband spectrum and 0-1 test say chaotic"
-        return result(
-            QUASI_PERIODIC,
-            None,
-            f"{nonper}; lambda_1={lle:.3g}/period <= {lle_threshold:g} rules out chaos "
-            f"({facts}){note}",
-        )
+        return (QUASI_PERIODIC, None,
+                f"{nonper}; lambda_1={lle:.3g}/period <= {thr:g} rules out chaos ({facts}){note}")
     if votes["spectrum"] == "lines":
-        return result(QUASI_PERIODIC, None, f"{nonper}; discrete spectrum ({facts})")
+        return QUASI_PERIODIC, None, f"{nonper}; discrete spectrum ({facts})"
     if votes["spectrum"] == "broadband":
-        return result(CHAOTIC, None, f"{nonper}; broadband spectrum ({facts})")
+        return CHAOTIC, None, f"{nonper}; broadband spectrum ({facts})"
     label: Label = CHAOTIC if votes["zero_one"] == "chaotic" else QUASI_PERIODIC
-    return result(
-        label, None, f"{nonper}; spectrum ambiguous, 0-1 test decides ({facts})"
-    )
+    return label, None, f"{nonper}; spectrum ambiguous, 0-1 test decides ({facts})"

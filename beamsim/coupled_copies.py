@@ -1,6 +1,6 @@
 r"""A drive trajectory of the beam and perturbed copies of it, integrated together (RK4).
 
-This is the integrator behind the beam's Lyapunov estimates (:mod:`analysis.beam_lyapunov`).
+This is the integrator behind the beam's Lyapunov estimates (:mod:`analysis.lyapunov.beam`).
 One *drive* ``x = (q, v, z)`` (generalised coordinates, velocities, Jenkins slips) with its
 stick/slip state, started from a full restart state (``SimResult.final_state``), and ``M``
 *copies* ``y_m`` started at ``x + offset_m``, each with its own stick/slip state, obey

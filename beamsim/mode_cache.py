@@ -10,6 +10,7 @@ import json
 import math
 import re
 from pathlib import Path
+from typing import Mapping
 
 import pyarrow as pa
 import pyarrow.parquet as pq
@@ -28,6 +29,18 @@ def cache_key(alpha: float, beta: float, bc: str, n_modes: int) -> str:
     if bc not in BOUNDARY_CONDITIONS:
         raise ValueError(f"bc must be one of {', '.join(BOUNDARY_CONDITIONS)}; got {bc!r}")
     return f"alpha{float(alpha)!r}_beta{float(beta)!r}_{bc}_n{int(n_modes)}"
+
+
+def model_cache_key(params: Mapping, n_modes: int | None = None) -> str:
+    """:func:`cache_key` of the modes a model with these parameters (``alpha1``, ``alpha2``,
+    ``alpha_modes``, ``beta``, ``bc``, ``n_modes``, as in :class:`beamsim.two_layer.Geometry`)
+    needs; ``n_modes`` overrides the parameter's."""
+    from beamsim.two_layer import basis_thickness
+
+    alpha = basis_thickness(params["alpha1"], params.get("alpha2", params["alpha1"]),
+                            params.get("alpha_modes"))
+    return cache_key(alpha, params["beta"], params.get("bc", "clamped-free"),
+                     params["n_modes"] if n_modes is None else n_modes)
 
 
 def parse_cache_key(key: str) -> dict:

@@ -166,10 +166,16 @@ class Geometry:
         object.__setattr__(self, "interface_damping", zt)
         if self.bc not in BCS:
             raise ValueError(f"bc must be one of {BCS}, got {self.bc!r}")
-        am = (0.5 * (a1 + a2) if self.alpha_modes is None
-              else check_positive("alpha_modes", self.alpha_modes))
+        am = basis_thickness(a1, a2, None if self.alpha_modes is None
+                             else check_positive("alpha_modes", self.alpha_modes))
         set_fields(self, alpha1=a1, alpha2=a2, beta=beta, n_modes=n, k_t=kt, n_quad=nq,
                    damping=zeta, alpha_modes=am)
+
+
+def basis_thickness(alpha1: float, alpha2: float, alpha_modes: float | None = None) -> float:
+    """Thickness / R of the single-layer arch whose modes are the Galerkin basis:
+    ``alpha_modes`` if given, else the mean layer ``(alpha1 + alpha2) / 2``."""
+    return 0.5 * (alpha1 + alpha2) if alpha_modes is None else alpha_modes
 
 
 #: modes supplied from outside (the workflow's per-geometry cache), keyed by

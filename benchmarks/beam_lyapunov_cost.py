@@ -1,9 +1,9 @@
 """Cost of one lambda_1 per beam grid point: Stefanski vs Benettin (and the reference run).
 
 For a few points of the default grid's region (one-mode model, mu_s / mu_k = 1.5) and two
-three-mode points (weakly and strongly chaotic) the reference trajectory is integrated (``n_transient + n_record``
-periods, pipeline numerics), then from its final state, each timed separately after a
-warm-up call that compiles the kernels:
+three-mode points (weakly and strongly chaotic) the reference trajectory is integrated
+(``n_transient + n_record`` periods, pipeline numerics), then from its final state, each timed
+separately after a warm-up call that compiles the kernels:
 
 * Benettin: one free copy renormalised every period over ``n_periods`` (what the pipeline
   reports as ``lle_benettin``);
@@ -29,9 +29,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from analysis.beam_lyapunov import (attractor_scale, beam_benettin, beam_lle,  # noqa: E402
-                                    response_scale)
-from beamsim.simulate import prepare_point, simulate_batch  # noqa: E402
+from analysis.lyapunov.beam import attractor_scale, beam_benettin, beam_lle, response_scale
+from beamsim.simulate import prepare_point, simulate_batch
 
 BASE = dict(mu_s=0.45, mu_k=0.3, n_modes=1, interface_damping=0.5)   # the pipeline's model
 POINTS = [

@@ -1,6 +1,6 @@
 """Cost of one lambda_1: Stefanski (synchronisation) vs Benettin (two trajectories).
 
-Runs both estimators on the reference systems of ``analysis.reference_systems``
+Runs both estimators on the reference systems of ``analysis.lyapunov.reference_systems``
 with the same RK4 step and the same measuring length, after a warm-up call that
 compiles the numba kernel for each right-hand side (compile time is reported
 separately, it is paid once per rhs per process).  Prints a Markdown table with
@@ -28,8 +28,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from analysis.lyapunov import benettin_lle, stefanski_lle  # noqa: E402
-from analysis.reference_systems import REFERENCE_SYSTEMS  # noqa: E402
+from analysis.lyapunov import benettin_lle, stefanski_lle
+from analysis.lyapunov.reference_systems import REFERENCE_SYSTEMS
 
 
 def _timed(fn, repeat: int):

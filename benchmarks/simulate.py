@@ -35,10 +35,10 @@ import math
 import sys
 import time
 
-import beamsim  # noqa: F401  (first: pins BLAS threads before numpy loads)
 import numpy as np
 from scipy.integrate import solve_ivp
 
+import beamsim  # noqa: F401  (first: pins BLAS threads before numpy loads)
 from beamsim.simulate import prepare_point, simulate, simulate_batch
 
 # the pipeline's model (interface dashpot on: without it the undamped penalty modes make the

@@ -21,6 +21,7 @@ rule simulate_chunk:
     params:
         points=chunk_payload,
         numerics=RESULT_NUMERICS,
+        store=STORE_ROOT,
     threads: 2
     log:
         "logs/regimes/{grid}/simulate_{chunk}.log",
@@ -40,6 +41,7 @@ rule lyapunov_chunk:
     params:
         points=chunk_payload,
         numerics=RESULT_NUMERICS,
+        store=STORE_ROOT,
     threads: 2
     log:
         "logs/regimes/{grid}/lyapunov_{chunk}.log",
@@ -56,7 +58,6 @@ rule classify_chunk:
     output:
         table="results/regimes/{grid}/chunks/{chunk}.classify.parquet",
     params:
-        points=chunk_payload,
         numerics=RESULT_NUMERICS,
         classifier=CLASSIFIER_VERSION,
     log:

@@ -2,13 +2,13 @@
 
 import sys
 
-sys.stderr = open(snakemake.log[0], "w")  # noqa: F821 (snakemake is injected)
+sys.stderr = open(snakemake.log[0], "w")
 
-import pandas as pd  # noqa: E402
+import pandas as pd
 
-from analysis.regime_pipeline import classify_points, lle_resolution  # noqa: E402
+from analysis.pipeline.stages import classify_points, lle_resolution
 
-table = classify_points(pd.read_parquet(snakemake.input.simulate),  # noqa: F821
-                        pd.read_parquet(snakemake.input.lyapunov),  # noqa: F821
-                        lle_threshold=lle_resolution(snakemake.params.numerics))  # noqa: F821
-table.to_parquet(snakemake.output.table, index=False)  # noqa: F821
+table = classify_points(pd.read_parquet(snakemake.input.simulate),
+                        pd.read_parquet(snakemake.input.lyapunov),
+                        lle_threshold=lle_resolution(snakemake.params.numerics))
+table.to_parquet(snakemake.output.table, index=False)

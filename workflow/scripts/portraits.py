@@ -2,17 +2,17 @@
 
 import sys
 
-sys.stderr = open(snakemake.log[0], "w")  # noqa: F821 (snakemake is injected)
+sys.stderr = open(snakemake.log[0], "w")
 
-import pandas as pd  # noqa: E402
+import pandas as pd
 
-from analysis.regime_figures import nearest_rows, plot_portraits  # noqa: E402
-from analysis.regime_pipeline import portrait_case, register_cached_modes  # noqa: E402
+from analysis.figures.regimes import nearest_rows, plot_portraits
+from analysis.pipeline.stages import portrait_case, register_cached_modes
 
-register_cached_modes(snakemake.input.modes)  # noqa: F821
-table = pd.read_parquet(snakemake.input.table)  # noqa: F821
-grid = snakemake.params.grid  # noqa: F821
-cases = [portrait_case(row, list(grid["axes"]), snakemake.params.numerics)  # noqa: F821
+register_cached_modes(snakemake.input.modes)
+table = pd.read_parquet(snakemake.input.table)
+grid = snakemake.params.grid
+cases = [portrait_case(row, list(grid["axes"]), snakemake.params.numerics)
          for row in nearest_rows(table, grid)]
-plot_portraits(cases, snakemake.wildcards.grid, snakemake.output.figure,  # noqa: F821
-               dpi=snakemake.params.dpi)  # noqa: F821
+plot_portraits(cases, snakemake.wildcards.grid, snakemake.output.figure,
+               dpi=snakemake.params.dpi)

@@ -2,14 +2,14 @@
 
 import sys
 
-sys.stderr = open(snakemake.log[0], "w")  # noqa: F821 (snakemake is injected)
+sys.stderr = open(snakemake.log[0], "w")
 
-import logging  # noqa: E402
+import logging
 
-from analysis.regime_pipeline import register_cached_modes, simulate_points  # noqa: E402
+from analysis.pipeline.stages import register_cached_modes, simulate_points
 
 logging.basicConfig(stream=sys.stderr, level=logging.INFO, format="%(asctime)s %(message)s")
-register_cached_modes(snakemake.input.modes)  # noqa: F821
-table = simulate_points(snakemake.params.points, snakemake.params.numerics,  # noqa: F821
-                        store_root="results/store", threads=snakemake.threads)  # noqa: F821
-table.to_parquet(snakemake.output.table, index=False)  # noqa: F821
+register_cached_modes(snakemake.input.modes)
+table = simulate_points(snakemake.params.points, snakemake.params.numerics,
+                        store_root=snakemake.params.store, threads=snakemake.threads)
+table.to_parquet(snakemake.output.table, index=False)

@@ -1,11 +1,10 @@
-"""Validation of the independent frame FE arch model (tests/fe_frame_arch.py).
+"""Validation of the independent frame FE arch model (tests/support/fe_frame_arch.py).
 
 Everything here is checked against closed forms or published numbers that do not
-involve beamsim, so that tests/test_modes_fe.py can trust the FE as a reference.
+involve beamsim, so that tests/beamsim/test_modes_fe.py can trust the FE as a reference.
 """
 import numpy as np
 import pytest
-
 from fe_frame_arch import (
     BCS,
     RING,
@@ -28,9 +27,12 @@ def test_rigid_body_modes_and_mass():
     assert K.shape[0] == 3 * (n_el + 1)
     th = np.linspace(0, beta, n_el + 1)
     x, y = np.cos(th), np.sin(th)
-    tx = np.zeros(3 * (n_el + 1)); tx[0::3] = 1.0
-    ty = np.zeros(3 * (n_el + 1)); ty[1::3] = 1.0
-    rz = np.zeros(3 * (n_el + 1)); rz[0::3] = -y; rz[1::3] = x; rz[2::3] = 1.0
+    tx = np.zeros(3 * (n_el + 1))
+    tx[0::3] = 1.0
+    ty = np.zeros(3 * (n_el + 1))
+    ty[1::3] = 1.0
+    rz = np.zeros(3 * (n_el + 1))
+    rz[0::3], rz[1::3], rz[2::3] = -y, x, 1.0
     Kd = K.toarray()
     scale = np.abs(Kd).max()
     for v in (tx, ty, rz):

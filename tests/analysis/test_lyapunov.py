@@ -1,4 +1,4 @@
-"""Validation of the largest-Lyapunov-exponent estimators (analysis/lyapunov.py).
+"""Validation of the largest-Lyapunov-exponent estimators (analysis/lyapunov/).
 
 Tolerances are fixed in advance from the statistics of a finite-time exponent,
 not fitted to the outcome:
@@ -39,7 +39,7 @@ from analysis.lyapunov import (
     stefanski_lle,
     sync_search,
 )
-from analysis.reference_systems import REFERENCE_SYSTEMS, get_system
+from analysis.lyapunov.reference_systems import REFERENCE_SYSTEMS, get_system
 
 LORENZ_LAMBDA1 = 0.906  # project brief; Sprott (2003): 0.9056
 

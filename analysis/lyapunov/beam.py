@@ -7,8 +7,10 @@ ended in (``SimResult.final_state``, i.e. on the attractor after the transient).
 trajectories are integrated (no Jacobian, no saltation matrices), so both are valid for the
 discontinuous stick/slip dynamics.
 
-* **Stefanski** (:func:`analysis.lyapunov.sync_search`, the same bracket search and windowed,
-  scale-aware synchronisation test as the generic :func:`analysis.lyapunov.stefanski_lle`):
+* **Stefanski** (:func:`analysis.lyapunov.sync_search.sync_search` and
+  :func:`analysis.lyapunov.sync_rule.sync_test`, the same bracket search and windowed,
+  scale-aware synchronisation test as the generic
+  :func:`analysis.lyapunov.generic.stefanski_lle`):
   responses ``y' = f(t, y) + d (x - y)`` on every continuous state variable; the smallest
   synchronising ``d`` estimates ``lambda_1``.  ``d = 0`` is tested first, alone: where it
   synchronises, or its windowed error rate (the free pair's finite-time exponent) is within
@@ -41,22 +43,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from analysis.lyapunov import LLEResult, _exp_clip, _perturbation, _window_rate, sync_search
+from analysis.lyapunov.result import LLEResult
+from analysis.lyapunov.sync_rule import coupling_cap, exp_clip, perturbation, sync_test, zero_tolerance
+from analysis.lyapunov.sync_search import sync_search
 
 __all__ = ["BeamLLE", "attractor_scale", "beam_benettin", "beam_lle", "initial_offset",
            "response_scale"]
-
-#: RK4 stability limit of the coupling term -d e (see analysis.lyapunov)
-_RK4_REAL_LIMIT = 2.5
-#: ln of the scaled error regarded as exact coincidence / round-off
-_LOG_ROUNDOFF = math.log(1e-11)
 
 
 @dataclass
 class BeamLLE:
     """Both estimates of one grid point.  ``stefanski`` and ``benettin`` are
-    :class:`analysis.lyapunov.LLEResult` (value per unit dimensionless time); ``period`` is the
-    forcing period ``T``."""
+    :class:`analysis.lyapunov.result.LLEResult` (value per unit dimensionless time); ``period``
+    is the forcing period ``T``."""
 
     stefanski: LLEResult
     benettin: LLEResult
@@ -103,7 +102,7 @@ def initial_offset(prepared, scale: np.ndarray, e0: float, seed: int = 0, n_slow
     # eigenvector signs are arbitrary (LAPACK's depend on the threading): fix them, so the
     # direction -- and every result -- is the same on any machine setting
     phi = phi[:, :k] * np.sign(phi[np.argmax(np.abs(phi[:, :k]), axis=0), np.arange(k)])
-    u = _perturbation(2 * k, seed)
+    u = perturbation(2 * k, seed)
     om = np.sqrt(np.maximum(lam[:k], 0.0))
     dq = phi @ u[:k]
     dv = phi @ (om * u[k:])
@@ -124,7 +123,7 @@ def _benettin(log_err: np.ndarray, t: np.ndarray, k_align: int) -> LLEResult:
     return LLEResult(value=value, method="benettin", chaotic=value > 0,
                      verdict=f"mean log growth per unit time over periods {k0}-{log_err.size - 1} "
                              "(renormalised every period)",
-                     sync_error=_exp_clip(log_err[None, :]), sync_time=t)
+                     sync_error=exp_clip(log_err[None, :]), sync_time=t)
 
 
 def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_periods: int = 50,
@@ -142,14 +141,13 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
     n_periods : length of every synchronisation test and of the Benettin run, in forcing
         periods.  ``|lambda_1| T`` below about ``5 / n_periods`` is reported as zero.
     batch, rtol, max_rounds, window : the bracket search (see
-        :func:`analysis.lyapunov.stefanski_lle`).
+        :func:`analysis.lyapunov.generic.stefanski_lle`).
     with_benettin : also give the Benettin estimate (the free copy of the first batch is then
         rescaled to ``e0`` at every period end as well; see the module docstring).
     seed_ladder : start the Stefanski ladder at the Benettin estimate (``ladder_hint`` of
-        :func:`analysis.lyapunov.sync_search`: couplings 0.5-4 times it, steps of ``sqrt 2``)
-        instead of the factor-2 ladder below ``omega``; with ``rtol = 0.05`` that saves one or
-        two bracket rounds at a chaotic point (measured: 4 -> 3 batches at the two-mode test
-        point, 17 -> 11 runs at five points of a grid chunk).  Needs ``with_benettin``.
+        :func:`analysis.lyapunov.sync_search.sync_search`: couplings 0.5-4 times it, steps of
+        ``sqrt 2``) instead of the factor-2 ladder below ``omega``: fewer bracket rounds at a
+        chaotic point (measured in docs/lyapunov.md).  Needs ``with_benettin``.
     zero_first : test ``d = 0`` alone first (see the module docstring); ``False`` runs the
         generic search (``d = 0`` with the ladder, then multisection) -- the cost at a point
         where the shortcut does not apply.
@@ -159,7 +157,7 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
         separation must stay far below the attractor size).
     """
     from beamsim.coupled_copies import run_copies
-    from beamsim.simulate import period_steps
+    from beamsim.point import period_steps
 
     P = len(prepared)
     x_start = np.asarray(x_start, dtype=float)
@@ -190,27 +188,21 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
         h = T / period_steps(pp, "rk4", steps_per_period, step_factor)
         n_runs = [0]
 
-        def test(log_err: np.ndarray):
-            log_err = np.where(np.isnan(log_err) | (log_err == np.inf), np.inf, log_err)
-            rate, first, last = _window_rate(log_err, t_s, window)
-            rate = np.where(np.isfinite(rate), rate, np.inf)
-            return rate, log_err, (rate < 0.0) | (last <= _LOG_ROUNDOFF)
-
         def run_batch(ds: np.ndarray, i=i, pp=pp):
             ds = np.asarray(ds, dtype=float)
             if zero_first and n_runs[0] == 0 and ds.size == 1 and ds[0] == 0.0:
                 n_runs[0] += 1
-                return test(le0[i, :1, 1:])
+                return sync_test(le0[i, :1, 1:], t_s, window)
             n_runs[0] += 1
             le = run_copies([pp], x_start[i:i + 1], np.repeat(offs[i][None, None, :], ds.size, axis=1),
                             ds[None, :], inv[i:i + 1], **run_kw)
-            return test(le[0, :, 1:])
+            return sync_test(le[0, :, 1:], t_s, window)
 
         ben = (_benettin(le0[i, 0], t, k_align) if with_benettin
                else LLEResult(value=float("nan"), method="benettin", verdict="not run", chaotic=False))
         t_pt = time.perf_counter()
         st = sync_search(run_batch, t_s=t_s, batch=batch, rtol=rtol, atol=1e-3 / T,
-                         omega_c=pp.omega, d_cap=_RK4_REAL_LIMIT / h, zero_tol=5.0 / (n_periods * T),
+                         omega_c=pp.omega, d_cap=coupling_cap(h), zero_tol=zero_tolerance(n_periods * T),
                          e0=e0, bounded=True, max_rounds=max_rounds, zero_first=zero_first,
                          ladder_hint=ben.value if seed_ladder else None)
         st.runtime = time.perf_counter() - t_pt + t_round0 / P

@@ -6,9 +6,10 @@ A grid (``config/grid.yaml``) has ``axes`` -- any model parameter, given as a li
 section ``model``).  A 1-D grid yields a bifurcation diagram, a 2-D grid a regime map.
 
 A point's identity is its parameters, not its position in a list:
-``point_id = sha256(canonical JSON of the resolved parameters and the numerics that change
-results)[:16]``.  Adding points or reordering a grid therefore recomputes only new points;
-changing a default changes the id of every point that uses it.
+``point_id = sha256(canonical JSON of the resolved parameters and the resolved numerics that
+change results, :meth:`analysis.pipeline.config.Numerics.result_dict`)[:16]``.  Adding points
+or reordering a grid therefore recomputes only new points; changing a default changes the id of
+every point that uses it.
 """
 
 from __future__ import annotations
@@ -20,6 +21,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
+from analysis.pipeline.config import Numerics, as_numerics
 
 #: bump when a code change alters results for unchanged parameters (invalidates all ids)
 RESULTS_VERSION = "5"
@@ -47,9 +50,11 @@ def canonical_json(obj) -> str:
     return json.dumps(_canonical(obj), sort_keys=True, separators=(",", ":"))
 
 
-def point_id(params: dict, numerics: dict) -> str:
-    """16-hex-digit identity of a point from its resolved parameters and the numerics."""
-    payload = canonical_json({"params": params, "numerics": numerics, "version": RESULTS_VERSION})
+def point_id(params: dict, numerics: Numerics | dict) -> str:
+    """16-hex-digit identity of a point from its resolved parameters and the numerics (resolved:
+    a setting left to its default gives the same id as the default written out)."""
+    resolved = as_numerics(numerics).result_dict()
+    payload = canonical_json({"params": params, "numerics": resolved, "version": RESULTS_VERSION})
     return hashlib.sha256(payload.encode()).hexdigest()[:16]
 
 
@@ -83,7 +88,7 @@ class GridPoint:
     point_id: str
 
 
-def expand_grid(name: str, grid: dict, model_defaults: dict, numerics: dict) -> list[GridPoint]:
+def expand_grid(name: str, grid: dict, model_defaults: dict, numerics: Numerics | dict) -> list[GridPoint]:
     """All points of a grid, in axis order (first axis slowest)."""
     axes = grid.get("axes", {})
     unknown = set(axes) | set(grid.get("fixed", {}))
@@ -97,6 +102,7 @@ def expand_grid(name: str, grid: dict, model_defaults: dict, numerics: dict) -> 
     base = dict(model_defaults) | dict(grid.get("fixed", {}))
     names = list(axes)
     values = [axis_values(a, axes[a]) for a in names]
+    numerics = as_numerics(numerics)
     points = []
     for idx in itertools.product(*(range(len(v)) for v in values)):
         params = dict(base)

@@ -24,7 +24,7 @@ coordinates and assembled into sparse (banded) K and M.  End conditions:
 The generalized symmetric eigenproblem K x = omega^2 M x is solved with
 ``scipy.sparse.linalg.eigsh`` in shift-invert mode about 0 (this resolves the
 *lowest* eigenvalues to near machine precision relative to themselves; a dense
-``scipy.linalg.eigh`` -- used as a cross-check in ``tests/test_fe_frame_arch.py`` -- has
+``scipy.linalg.eigh`` -- used as a cross-check in ``tests/beamsim/test_fe_frame_arch.py`` -- has
 absolute errors ~ eps * omega_max^2 which, for very thin / long arches, are not
 negligible relative to omega_1^2).
 
@@ -37,7 +37,7 @@ return nodal shapes: w radial outward, u towards increasing theta (the signs imp
 
 Public API: ``arch_lam_fe`` (dimensionless, alpha or k2), ``arch_omega_fe`` (physical
 R, E, rho, A, I -> rad/s), ``arch_shapes_fe``, ``frame_eigs`` / ``frame_modes`` (one
-mesh), ``assemble``; ``python tests/fe_frame_arch.py`` prints the convergence table.
+mesh), ``assemble``; ``python tests/support/fe_frame_arch.py`` prints the convergence table.
 
 Accuracy (how it was established)
 ---------------------------------
@@ -45,7 +45,7 @@ The faceting (straight chords instead of the arc) and the linear axial field bot
 an error expansion lam_h = lam + c2 h^2 + c4 h^4 + ... in the element size h = beta/n_el
 (the Hermite bending error alone is O(h^4)).  ``arch_lam_fe`` therefore solves on three
 meshes n, 2n, 4n (default n = 40) and applies two-level Richardson extrapolation
-(eliminating h^2, then h^4).  Evidence (``python tests/fe_frame_arch.py`` prints the
+(eliminating h^2, then h^4).  Evidence (``python tests/support/fe_frame_arch.py`` prints the
 table, ~1.5 s), for alpha in {0.01, 0.03, 0.1}, beta in {0.4, 1.2, 3.0} and all three
 end conditions, first four eigenvalues:
 
@@ -57,7 +57,7 @@ end conditions, first four eigenvalues:
 * at n_el >= 320 the eigen-solve round-off reaches 1e-7 .. 1e-6 relative for thin,
   short clamped-free arches (the factor-4 ratio breaks down), which is why finer meshes
   are not used;
-* against closed forms that do not involve beamsim (``tests/test_fe_frame_arch.py``):
+* against closed forms that do not involve beamsim (``tests/beamsim/test_fe_frame_arch.py``):
   complete extensible ring lam_n (n = 2..4) to < 2e-8, straight cantilever limit to
   ~3e-5 (limited by the 5-digit beta_n L values and residual curvature), published
   97-degree pinned arch +0.06 / +0.16 / +0.56 %, as expected for extensible E-B theory.

@@ -6,10 +6,10 @@ from __future__ import annotations
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from beamsim.modes import ArchModes, characteristic_determinant  # noqa: E402
+from beamsim.modes import ArchModes, characteristic_determinant
 
 
 def _title(modes: ArchModes) -> str:
@@ -19,8 +19,8 @@ def _title(modes: ArchModes) -> str:
 def plot_determinant(modes: ArchModes, path: str, n_points: int = 1500) -> None:
     """Scaled characteristic function D(lam) with the computed eigenvalues marked (Fig. 4).
 
-    lam is on a log axis so that all roots are visible; D is shown as ``asinh(D / s)`` (s = median |D|) so its sign changes stay visible over
-    many decades.
+    lam is on a log axis so that all roots are visible; D is shown as ``asinh(D / s)``
+    (s = median |D|) so its sign changes stay visible over many decades.
     """
     lam = np.geomspace(modes.lam[0] / 4.0, modes.lam[-1] * 1.3, n_points)
     d = characteristic_determinant(lam, modes.alpha, modes.beta, modes.bc)
@@ -30,7 +30,8 @@ def plot_determinant(modes: ArchModes, path: str, n_points: int = 1500) -> None:
     ax.axhline(0.0, color="0.5", lw=0.8)
     ax.plot(modes.lam, np.zeros_like(modes.lam), "o", color="C3", label="eigenvalues")
     for n, x in enumerate(modes.lam, start=1):
-        ax.annotate(rf"$\lambda_{n}$={x:.4g}", (x, 0), textcoords="offset points", xytext=(3, 8 if n % 2 else -14), fontsize=8)
+        ax.annotate(rf"$\lambda_{n}$={x:.4g}", (x, 0), textcoords="offset points",
+                    xytext=(3, 8 if n % 2 else -14), fontsize=8)
     ax.set_xscale("log")
     ax.set_xlabel(r"$\lambda = \omega^2 \rho R^2 / E$ (log scale)")
     ax.set_ylabel(r"asinh$(D(\lambda)/s)$")
@@ -59,7 +60,8 @@ def plot_mode_shapes(modes: ArchModes, path: str, n_show: int = 3) -> None:
     axes[1].set_title(r"tangential $U_n(\theta)$")
     axes[2].set_title("deformed arch (exaggerated)")
     for ax in axes[:2]:
-        ax.set_xlabel(r"$\theta$ [rad] (clamped end at 0)" if modes.bc.startswith("clamped") else r"$\theta$ [rad]")
+        clamped = modes.bc.startswith("clamped")
+        ax.set_xlabel(r"$\theta$ [rad] (clamped end at 0)" if clamped else r"$\theta$ [rad]")
         ax.axhline(0, color="0.6", lw=0.6)
     axes[2].set_aspect("equal")
     axes[2].set_xlabel("x / R")

@@ -120,7 +120,8 @@ def test_shapes_satisfy_equations_bcs_and_orthogonality(bc, alpha, beta):
     left, right = bc.split("-")
     for kind, theta in ((left, 0.0), (right, beta)):
         for n in range(m.n_modes):
-            y = np.array([m.W([theta], d)[n, 0] for d in range(4)] + [m.U([theta], d)[n, 0] for d in range(2)])
+            y = np.array([m.W([theta], d)[n, 0] for d in range(4)]
+                         + [m.U([theta], d)[n, 0] for d in range(2)])
             scale = np.abs([m.W(th, d)[n] for d in range(4)]).max()
             res = end_conditions(kind, m.lam[n], k2) @ y
             assert np.abs(res).max() < 1e-8 * scale, (kind, n, res)

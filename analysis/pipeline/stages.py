@@ -1,7 +1,7 @@
 """The stages of the regime pipeline, one function per Snakemake rule (rules stay thin).
 
 Every stage takes a chunk of grid points (``[{"point_id": ..., "params": {...}}, ...]``),
-looks each point up in the content-addressed :class:`analysis.point_store.PointStore`,
+looks each point up in the content-addressed :class:`analysis.pipeline.store.PointStore`,
 computes only the missing ones (batched, threads inside), and returns one table row per
 point in the chunk's order.  Progress (points done / total) goes to the ``logging`` log.
 """
@@ -15,8 +15,8 @@ from collections.abc import Callable, Sequence
 import numpy as np
 import pandas as pd
 
-from analysis.grid import canonical_json
-from analysis.point_store import PointStore
+from analysis.pipeline.config import Numerics, as_numerics
+from analysis.pipeline.store import PointStore
 
 log = logging.getLogger("regimes")
 
@@ -53,7 +53,7 @@ def compile_kernels(stage: str, methods: Sequence[str] = ("expo",), threads: int
         for method in methods:
             simulate_batch([point], n_transient=0, n_record=1, method=method, n_threads=threads)
     elif stage == "lyapunov":
-        from analysis.beam_lyapunov import attractor_scale, beam_lle, response_scale
+        from analysis.lyapunov.beam import attractor_scale, beam_lle, response_scale
 
         pp = prepare_point(**point)
         n, nq = pp.model.n, pp.model.n_quad
@@ -80,16 +80,15 @@ def integrator(method: str, params: dict) -> str:
     return "expo" if params.get("law", "stick-slip") == "stick-slip" else "rk4"
 
 
-def _simulate_group(points: list[dict], numerics: dict, threads: int) -> list[dict]:
+def _simulate_group(points: list[dict], nm: Numerics, threads: int) -> list[dict]:
     """Reference trajectory of each point in one batch: ``n_transient`` periods discarded,
     ``n_record`` recorded, and the final state (restart point of the Lyapunov stage)."""
     from beamsim.simulate import simulate_batch
 
-    n_trans, n_rec = numerics["n_transient"], numerics["n_record"]
-    res = simulate_batch([p["params"] for p in points], n_transient=n_trans, n_record=n_rec,
-                         method=integrator(numerics["method"], points[0]["params"]),
-                         steps_per_period=numerics.get("steps_per_period"),
-                         step_factor=numerics.get("step_factor", 0.5), n_threads=threads)
+    res = simulate_batch([p["params"] for p in points], n_transient=nm.n_transient,
+                         n_record=nm.n_record, method=integrator(nm.method, points[0]["params"]),
+                         steps_per_period=nm.steps_per_period, step_factor=nm.step_factor,
+                         n_threads=threads)
     out = []
     for r in res.results:
         energy = r.energy
@@ -110,19 +109,21 @@ def _simulate_group(points: list[dict], numerics: dict, threads: int) -> list[di
     return out
 
 
-def simulate_points(points: Sequence[dict], numerics: dict, store_root: str, threads: int = 1) -> pd.DataFrame:
+def simulate_points(points: Sequence[dict], numerics: Numerics | dict, store_root: str,
+                    threads: int = 1) -> pd.DataFrame:
     """Stage 1: time integration; one row per point with its Poincare samples."""
     store = PointStore(store_root, "simulate")
+    nm = as_numerics(numerics)
 
     def compute(batch: list[dict]) -> list[dict]:
         # a batch must share the state size and the integrator
         groups: dict = {}
         for i, p in enumerate(batch):
-            key = (p["params"].get("n_modes"), p["params"].get("n_quad"), integrator(numerics["method"], p["params"]))
+            key = (p["params"].get("n_modes"), p["params"].get("n_quad"), integrator(nm.method, p["params"]))
             groups.setdefault(key, []).append(i)
         recs: list = [None] * len(batch)
         for idx in groups.values():
-            for i, rec in zip(idx, _simulate_group([batch[i] for i in idx], numerics, threads)):
+            for i, rec in zip(idx, _simulate_group([batch[i] for i in idx], nm, threads)):
                 recs[i] = rec
         return recs
 
@@ -146,14 +147,13 @@ def poincare_array(value) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------- lyapunov
-def _lyapunov_group(points: list[dict], sim: pd.DataFrame, numerics: dict, threads: int) -> list[dict]:
-    """Stefanski and Benettin estimates (analysis.beam_lyapunov) and nolds for one batch."""
-    from analysis.beam_lyapunov import attractor_scale, beam_lle, response_scale
-    from analysis.lyapunov import nolds_lle
+def _lyapunov_group(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: int) -> list[dict]:
+    """Stefanski and Benettin estimates (analysis.lyapunov.beam) and nolds for one batch."""
+    from analysis.lyapunov.beam import attractor_scale, beam_lle, response_scale
+    from analysis.lyapunov.nolds_rosenstein import nolds_lle
     from beamsim.simulate import prepare_point
 
-    lopt = numerics.get("lyapunov", {})
-    emb_dim = int(lopt.get("nolds_emb_dim", 6))
+    lopt = nm.lyapunov
     recs: list = [None] * len(points)
     good = []
     for i, p in enumerate(points):
@@ -168,20 +168,20 @@ def _lyapunov_group(points: list[dict], sim: pd.DataFrame, numerics: dict, threa
             good.append(i)
     if good:
         prepared = [prepare_point(**points[i]["params"]) for i in good]
-        starts = np.stack([np.asarray(sim.loc[points[i]["point_id"], "final_state"], dtype=float) for i in good])
+        starts = np.stack([np.asarray(sim.loc[points[i]["point_id"], "final_state"], dtype=float)
+                           for i in good])
         scales = np.stack([attractor_scale(poincare_array(sim.loc[points[i]["point_id"], "poincare_state"]),
                                            response_scale(pp), pp.omega) for i, pp in zip(good, prepared)])
         # a fixed step count is an RK4 setting only when RK4 was asked for by name
-        rk4_steps = numerics.get("steps_per_period") if numerics["method"] == "rk4" else None
-        res = beam_lle(prepared, starts, scales, n_periods=int(lopt.get("n_periods", 50)),
-                       steps_per_period=rk4_steps,
-                       step_factor=lopt.get("step_factor", 0.5), n_threads=threads)
+        rk4_steps = nm.steps_per_period if nm.method == "rk4" else None
+        res = beam_lle(prepared, starts, scales, n_periods=lopt.n_periods, steps_per_period=rk4_steps,
+                       step_factor=lopt.step_factor, n_threads=threads)
         for i, est in zip(good, res):
             r = sim.loc[points[i]["point_id"]]
             period = 2.0 * np.pi / r["omega"]
             try:
                 lle_nolds = float(nolds_lle(poincare_array(r["poincare_tip"])[:, 0], sample_dt=period,
-                                            emb_dim=emb_dim).value)
+                                            emb_dim=lopt.nolds_emb_dim).value)
             except Exception as exc:  # nolds rejects short or constant series
                 log.info("nolds: point %s: %s", points[i]["point_id"], exc)
                 lle_nolds = np.nan
@@ -192,19 +192,20 @@ def _lyapunov_group(points: list[dict], sim: pd.DataFrame, numerics: dict, threa
     return recs
 
 
-def lyapunov_points(points: Sequence[dict], simulated: pd.DataFrame, numerics: dict,
+def lyapunov_points(points: Sequence[dict], simulated: pd.DataFrame, numerics: Numerics | dict,
                     store_root: str, threads: int = 1) -> pd.DataFrame:
     """Stage 2: ``lambda_1`` (per unit dimensionless time) of every point, on its attractor
     (restarted from the reference run's final state):
 
     * ``lle_stefanski``: synchronisation method on the beam's full state
-      (:func:`analysis.beam_lyapunov.beam_lle`), with its verdict and bracket on ``d_s``;
+      (:func:`analysis.lyapunov.beam.beam_lle`), with its verdict and bracket on ``d_s``;
     * ``lle_benettin``: two trajectories, renormalised every period (same integrator);
     * ``lle_nolds``: Rosenstein's estimate (``nolds.lyap_r``) on the stroboscopic series of the
       tip radial displacement (NaN when the record is too short for the embedding).
     """
     store = PointStore(store_root, "lyapunov")
     sim = simulated.set_index("point_id")
+    nm = as_numerics(numerics)
 
     def compute(batch: list[dict]) -> list[dict]:
         groups: dict = {}
@@ -212,7 +213,7 @@ def lyapunov_points(points: Sequence[dict], simulated: pd.DataFrame, numerics: d
             groups.setdefault((p["params"].get("n_modes"), p["params"].get("n_quad")), []).append(i)
         recs: list = [None] * len(batch)
         for idx in groups.values():
-            for i, rec in zip(idx, _lyapunov_group([batch[i] for i in idx], sim, numerics, threads)):
+            for i, rec in zip(idx, _lyapunov_group([batch[i] for i in idx], sim, nm, threads)):
                 recs[i] = rec
         return recs
 
@@ -221,11 +222,14 @@ def lyapunov_points(points: Sequence[dict], simulated: pd.DataFrame, numerics: d
 
 
 # ----------------------------------------------------------------------------- classify
-def lle_resolution(numerics: dict) -> float:
-    """Smallest ``lambda_1 T`` the Lyapunov stage resolves: ``5 / n_periods`` (the windowed
-    log-error is resolved to O(1) over the measuring time; a neutral direction -- torus,
-    undamped stuck modes -- shows slow secular growth below this)."""
-    return 5.0 / int(numerics.get("lyapunov", {}).get("n_periods", 50))
+def lle_resolution(numerics: Numerics | dict) -> float:
+    """Smallest ``lambda_1 T`` the Lyapunov stage resolves,
+    :func:`analysis.lyapunov.sync_rule.zero_tolerance` of ``n_periods`` (the windowed log-error
+    is resolved to O(1) over the measuring time; a neutral direction -- torus, undamped stuck
+    modes -- shows slow secular growth below this)."""
+    from analysis.lyapunov.sync_rule import zero_tolerance
+
+    return zero_tolerance(int(as_numerics(numerics).lyapunov.n_periods))
 
 
 def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame,
@@ -268,115 +272,36 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame,
     return out
 
 
-# ----------------------------------------------------------------------------- regime table
-#: columns of the regime table besides the model parameters (docs/pipeline.md)
-TABLE_COLUMNS = (
-    "point_id", "label", "period", "lle_stefanski", "lle_benettin", "lle_nolds",
-    "lle_stefanski_lo", "lle_stefanski_hi", "K", "spectral_growth", "n_clusters", "slipped",
-    "t_first_slip", "stick_fraction", "diss_per_cycle", "f0", "f_cr", "omega", "Omega", "lam_f",
-    "diverged", "settled", "energy_residual_rel", "lle_stefanski_verdict", "reason",
-)
-
-
-def assemble_regime_table(grid_points: Sequence[dict], simulated: pd.DataFrame, lyapunov: pd.DataFrame,
-                          classified: pd.DataFrame) -> pd.DataFrame:
-    """Stage 4: one row per grid point in grid order (first axis slowest), parameters first."""
-    by_id = (classified.set_index("point_id")
-             .join(lyapunov.set_index("point_id"), rsuffix="_lle")
-             .join(simulated.set_index("point_id"), rsuffix="_sim"))
-    param_names = sorted({k for p in grid_points for k in p["params"]})
-    rows = []
-    for p in grid_points:
-        r = by_id.loc[p["point_id"]]
-        row = {k: p["params"].get(k) for k in param_names}
-        row.update({f"index_{i}": v for i, v in enumerate(p["index"])})
-        row.update({c: r[c] if c in r.index else None for c in TABLE_COLUMNS if c != "point_id"})
-        row["point_id"] = p["point_id"]
-        row["params_json"] = canonical_json(p["params"])
-        tip = poincare_array(r["poincare_tip"])
-        row["poincare_w_tip"] = tip[:, 0].tolist() if tip.size else []
-        rows.append(row)
-    table = pd.DataFrame(rows)
-    table["period"] = table["period"].astype("Int64")
-    return table
-
-
-def package_versions() -> dict:
-    """Versions of the packages a regime table depends on."""
-    from importlib.metadata import PackageNotFoundError, version
-
-    out = {}
-    for name in ("beamsim", "numpy", "scipy", "numba", "pandas", "pyarrow", "nolds", "snakemake"):
-        try:
-            out[name] = version(name)
-        except PackageNotFoundError:
-            out[name] = None
-    return out
-
-
-def write_regime_table(table: pd.DataFrame, path: str, *, grid_name: str, grid: dict, config: dict,
-                       config_hash: str) -> None:
-    """Write the table to Parquet with ``beamsim.regimes`` metadata (grid, config, config hash,
-    package versions, the results and classifier versions); atomically, so a failed run never
-    leaves a partial table."""
-    import json
-    import os
-
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
-    from analysis.grid import RESULTS_VERSION
-    from analysis.regimes import CLASSIFIER_VERSION
-
-    tab = pa.Table.from_pandas(table, preserve_index=False)
-    meta = {"grid_name": grid_name, "grid": grid, "config": config, "config_hash": config_hash,
-            "versions": package_versions(), "results_version": RESULTS_VERSION,
-            "classifier_version": CLASSIFIER_VERSION}
-    tab = tab.replace_schema_metadata({**(tab.schema.metadata or {}),
-                                       b"beamsim.regimes": json.dumps(meta, sort_keys=True).encode()})
-    tmp = f"{path}.tmp"
-    pq.write_table(tab, tmp)
-    os.replace(tmp, path)
-
-
-def read_regime_metadata(path: str) -> dict:
-    """The ``beamsim.regimes`` metadata of a regime table."""
-    import json
-
-    import pyarrow.parquet as pq
-
-    return json.loads(pq.read_schema(path).metadata[b"beamsim.regimes"])
-
-
 # ----------------------------------------------------------------------------- portraits
-def portrait_case(row: pd.Series, axes: list[str], numerics: dict, samples_per_period: int = 64,
-                  n_show: int = 40) -> dict:
+def portrait_case(row: pd.Series, axes: list[str], numerics: Numerics | dict,
+                  samples_per_period: int = 64, n_show: int = 40) -> dict:
     """Dense tip history of one grid point for its phase portrait and Poincare map.
 
     Re-simulates the point (same parameters and numerics as the table) with a dense output of
     ``samples_per_period`` per period; the velocity is the central difference of the dense
-    tip displacement.  Returns the data :func:`analysis.regime_figures.plot_portraits` draws.
+    tip displacement.  Returns the data :func:`analysis.figures.regimes.plot_portraits` draws.
     """
     import json
 
     from beamsim.simulate import simulate
 
     params = json.loads(row["params_json"])
-    spp = numerics.get("steps_per_period")
+    nm = as_numerics(numerics)
+    spp = nm.steps_per_period
     if spp is not None:
         spp = max(samples_per_period, int(np.ceil(spp / samples_per_period) * samples_per_period))
-    r = simulate(n_transient=numerics["n_transient"], n_record=numerics["n_record"],
-                 method=integrator(numerics["method"], params), steps_per_period=spp,
-                 step_factor=numerics.get("step_factor", 0.5),
+    r = simulate(n_transient=nm.n_transient, n_record=nm.n_record,
+                 method=integrator(nm.method, params), steps_per_period=spp, step_factor=nm.step_factor,
                  dense_per_period=samples_per_period, **params)
     t, w = r.dense_t, r.dense[:, 0]
     w_dot = np.gradient(w, t)
     tail = slice(len(t) - n_show * samples_per_period - 1, len(t))
-    start = numerics["n_transient"] * samples_per_period
+    start = nm.n_transient * samples_per_period
     pidx = np.arange(start, len(t), samples_per_period)
     where = ", ".join(f"{a}={row[a]:g}" for a in axes)
-    title = f"{where}: {row['label']}" + (f" (period {int(row['period'])})" if pd.notna(row["period"]) else "")
-    return {"title": title, "t": t[tail], "w": w[tail], "w_dot": w_dot[tail], "pw": w[pidx], "pw_dot": w_dot[pidx]}
+    period = f" (period {int(row['period'])})" if pd.notna(row["period"]) else ""
+    return {"title": f"{where}: {row['label']}{period}", "t": t[tail], "w": w[tail],
+            "w_dot": w_dot[tail], "pw": w[pidx], "pw_dot": w_dot[pidx]}
 
 
 def register_cached_modes(files: Sequence[str]) -> None:

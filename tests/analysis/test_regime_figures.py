@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.regime_figures import LLE_RANGE_QUANTILE, lle_colour_limit, plot_lle, plot_regimes
+from analysis.figures.regimes import LLE_RANGE_QUANTILE, lle_colour_limit, plot_lle, plot_regimes
 
 
 def test_lle_colour_limit_ignores_outliers_but_not_the_resolution() -> None:

@@ -12,14 +12,14 @@ import pandas as pd
 import pytest
 import yaml
 
-from analysis.grid import RESULTS_VERSION
-from analysis.regime_pipeline import read_regime_metadata
+from analysis.pipeline.grid import RESULTS_VERSION
+from analysis.pipeline.table import read_regime_metadata
 from analysis.regimes import CLASSIFIER_VERSION
 
 # the tests share one built working directory: keep them on one xdist worker
 pytestmark = pytest.mark.xdist_group("regimes")
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 GRID = {"grids": {"tiny": {"axes": {"f0_rel": [0.5, 3.0]}, "fixed": {"Omega": 2.5, "mu_s": 0.45, "mu_k": 0.3},
                            "mark": [{"f0_rel": 3.0}]}}}
 
@@ -72,7 +72,8 @@ def test_outputs_table_schema_and_metadata(first_run):
         assert (out / name).stat().st_size > 0, name
     table = pd.read_parquet(out / "tiny.parquet")
     assert list(table["f0_rel"]) == [0.5, 3.0]  # grid order
-    for col in ("point_id", "label", "period", "lle_stefanski", "lle_benettin", "lle_nolds", "lle_stefanski_verdict", "K",
+    for col in ("point_id", "label", "period", "lle_stefanski", "lle_benettin", "lle_nolds",
+                "lle_stefanski_verdict", "K",
                 "slipped", "t_first_slip", "stick_fraction", "diss_per_cycle", "diverged", "settled",
                 "params_json", "poincare_w_tip", "reason"):
         assert col in table.columns, col

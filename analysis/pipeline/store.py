@@ -2,7 +2,7 @@
 
 The pipeline's chunk jobs look a point up here before computing it, so a point is computed
 once whatever grid or chunk asks for it (its id is a hash of its parameters, see
-:mod:`analysis.grid`).  Files are written atomically (temporary name, then rename), so an
+:mod:`analysis.pipeline.grid`).  Files are written atomically (temporary name, then rename), so an
 interrupted job never leaves a half-written record that a later run would trust.
 """
 

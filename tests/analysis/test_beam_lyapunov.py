@@ -1,5 +1,5 @@
 """Lyapunov estimates on the beam: the drive/copy integrator (beamsim.coupled_copies) and the
-Stefanski / Benettin estimates built on it (analysis.beam_lyapunov).
+Stefanski / Benettin estimates built on it (analysis.lyapunov.beam).
 
 Independent checks: a copy with zero offset and zero coupling is the drive (bitwise); the
 linear limit (the separation scales with the initial offset); the closed form of the coupling
@@ -14,8 +14,7 @@ import math
 import numpy as np
 import pytest
 
-from analysis.beam_lyapunov import (attractor_scale, beam_benettin, beam_lle, initial_offset,
-                                     response_scale)
+from analysis.lyapunov.beam import attractor_scale, beam_benettin, beam_lle, initial_offset, response_scale
 from beamsim.coupled_copies import run_copies
 from beamsim.simulate import prepare_point, restart_params, simulate_batch
 
@@ -68,7 +67,7 @@ def test_unperturbed_uncoupled_copy_is_the_drive(settled):
 
 
 def test_rescaling_at_period_ends_does_not_change_the_recorded_error(settled):
-    """One free copy serves Stefanski's d = 0 test and Benettin (analysis.beam_lyapunov): the
+    """One free copy serves Stefanski's d = 0 test and Benettin (analysis.lyapunov.beam): the
     recorded ln eps carries every rescaling factor, so a copy rescaled only when it leaves the
     band and one rescaled at every period end as well record the same linearised error up to the
     nonlinear remainder (separations differ by up to the band; switch times move with them).

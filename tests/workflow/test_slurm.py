@@ -1,7 +1,7 @@
 """Scale-out on a real cluster engine: the workflow through `--executor slurm` on a local SLURM.
 
 A single-node SLURM (Debian's slurm-wlm + munge, installed here if missing) is started on
-127.0.0.1 by tests/slurm_cluster.py; the small target is run through the real
+127.0.0.1 by tests/support/slurm_cluster.py; the small target is run through the real
 snakemake-executor-plugin-slurm with the repository's profiles/slurm/, and its outputs must equal
 those of a plain local run (-c1) of the same Snakefile and config. Skips only where the cluster
 cannot exist: not root, or no apt-get to install it. The daemons are stopped by pid in teardown.
@@ -22,10 +22,9 @@ import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 import yaml
-
 from slurm_cluster import LocalSlurm, can_run, install
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 VENV_BIN = str(Path(sys.executable).parent)
 RUN_TIMEOUT = 300  # seconds for one snakemake run (the SLURM one takes ~30 s here)
 
@@ -51,7 +50,7 @@ CASES = [
                    "results/modes/*/characteristic_function.png",
                    "results/modes/*/mode_shapes.png")),
     Case("regimes", ("results/regimes/*.parquet", "results/regimes/*/regimes.png"),
-         overrides={"grid_file": str(ROOT / "tests" / "data" / "grid_tiny.yaml"),
+         overrides={"grid_file": str(ROOT / "tests" / "workflow" / "data" / "grid_tiny.yaml"),
                     "numerics": {"n_transient": 4, "n_record": 128, "chunk_size": 1}}),
 ]
 
@@ -63,7 +62,8 @@ def _merge(base: dict, over: dict) -> dict:
     return out
 
 
-def _snakemake(workdir: Path, config: Path, target: str, *extra: str, env: dict) -> tuple[subprocess.CompletedProcess, float]:
+def _snakemake(workdir: Path, config: Path, target: str, *extra: str,
+               env: dict) -> tuple[subprocess.CompletedProcess, float]:
     cmd = [sys.executable, "-m", "snakemake", "-s", str(ROOT / "Snakefile"), "-d", str(workdir),
            "--configfile", str(config), *extra, target]
     t0 = time.monotonic()
@@ -135,8 +135,10 @@ def test_slurm_run_equals_local_run(slurm, case, tmp_path):
             assert b.stat().st_size > 0, rel
             if rel.suffix == ".parquet":
                 pd.testing.assert_frame_equal(pd.read_parquet(b), pd.read_parquet(a), check_exact=True)
-                meta_a = {k: v for k, v in (pq.read_schema(a).metadata or {}).items() if k not in case.ignore_metadata}
-                meta_b = {k: v for k, v in (pq.read_schema(b).metadata or {}).items() if k not in case.ignore_metadata}
+                meta_a = {k: v for k, v in (pq.read_schema(a).metadata or {}).items()
+                          if k not in case.ignore_metadata}
+                meta_b = {k: v for k, v in (pq.read_schema(b).metadata or {}).items()
+                          if k not in case.ignore_metadata}
                 assert meta_b == meta_a, rel  # geometry, versions, pandas schema
 
 

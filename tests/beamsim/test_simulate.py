@@ -1,6 +1,6 @@
 """Batched simulator: limits, energy ledger, convergence, slip onset, Goodman-Klumpp, API.
 
-Measured numbers are printed (run ``pytest -s tests/test_simulate.py``) and summarised in
+Measured numbers are printed (run ``pytest -s tests/beamsim/test_simulate.py``) and summarised in
 docs/model.md, section "Verification".
 """
 
@@ -62,7 +62,7 @@ def test_spectrum_frictionless_and_bonded():
     assert np.all(np.abs(err_fl) < 2e-3)
     assert np.all(np.abs(err_st) < 2e-3)
     # equal layers, bonded: twice the frictionless frequency (thin beam; k_t = 10 penalty
-    # lowers mode 3 by a few %, converging as k_t grows -- tests/test_two_layer.py)
+    # lowers mode 3 by a few %, converging as k_t grows -- tests/beamsim/test_two_layer.py)
     assert abs(w_st[0] / w_fl[0] - 2) < 0.02
 
 

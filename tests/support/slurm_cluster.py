@@ -63,7 +63,8 @@ def install(timeout: float = 900) -> float:
     policy = Path("/usr/sbin/policy-rc.d")
     made_policy = False
     if not policy.exists():
-        policy.write_text("#!/bin/sh\n# written by tests/slurm_cluster.py during apt-get install\nexit 101\n")
+        policy.write_text("#!/bin/sh\n# written by tests/support/slurm_cluster.py during apt-get install\n"
+                          "exit 101\n")
         policy.chmod(0o755)
         made_policy = True
     try:
@@ -72,7 +73,8 @@ def install(timeout: float = 900) -> float:
             left = timeout - (time.monotonic() - t0)
             res = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=max(left, 1))
             if res.returncode != 0:
-                raise RuntimeError(f"{' '.join(cmd)} failed ({res.returncode}):\n{res.stdout[-2000:]}{res.stderr[-2000:]}")
+                raise RuntimeError(f"{' '.join(cmd)} failed ({res.returncode}):\n"
+                                   f"{res.stdout[-2000:]}{res.stderr[-2000:]}")
     finally:
         if made_policy:
             policy.unlink(missing_ok=True)
@@ -90,7 +92,8 @@ def _free_port() -> int:
 def _real_memory_mb() -> int:
     """RealMemory as slurmd itself measures it (slurmd -C), else /proc/meminfo."""
     try:
-        out = subprocess.run([_which("slurmd") or "slurmd", "-C"], capture_output=True, text=True, timeout=30).stdout
+        out = subprocess.run([_which("slurmd") or "slurmd", "-C"], capture_output=True, text=True,
+                             timeout=30).stdout
         for tok in out.split():
             if tok.startswith("RealMemory="):
                 return int(tok.split("=", 1)[1])
@@ -186,7 +189,7 @@ class LocalSlurm:
         mem = _real_memory_mb()
         ctld_port, slurmd_port = _free_port(), _free_port()
         self.conf.write_text(f"""\
-# single-node test cluster written by tests/slurm_cluster.py
+# single-node test cluster written by tests/support/slurm_cluster.py
 ClusterName={self.cluster_name}
 SlurmctldHost={self.node}(127.0.0.1)
 SlurmctldPort={ctld_port}
@@ -237,15 +240,16 @@ PartitionName={self.partition} Nodes={self.node} Default=YES MaxTime=INFINITE St
 
     def _ok(self, cmd: list, want: str | None = None) -> bool:
         try:
-            res = subprocess.run([str(c) for c in cmd], capture_output=True, text=True, env=self.env(), timeout=10)
+            res = subprocess.run([str(c) for c in cmd], capture_output=True, text=True, env=self.env(),
+                                 timeout=10)
         except subprocess.TimeoutExpired:
             return False
         return res.returncode == 0 and (want is None or want in res.stdout)
 
     def _node_idle(self) -> bool:
         try:
-            res = subprocess.run([_which("sinfo"), "-h", "-N", "-n", self.node, "-o", "%T"], capture_output=True,
-                                 text=True, env=self.env(), timeout=10)
+            res = subprocess.run([_which("sinfo"), "-h", "-N", "-n", self.node, "-o", "%T"],
+                                 capture_output=True, text=True, env=self.env(), timeout=10)
         except subprocess.TimeoutExpired:
             return False
         return res.stdout.strip() == "idle"

@@ -1,4 +1,4 @@
-"""The regime pipeline's stage functions (analysis.regime_pipeline) outside Snakemake: which
+"""The regime pipeline's stage functions (analysis.pipeline.stages) outside Snakemake: which
 integrator a point's reference run uses, and that the fast one gives the regime map of the
 RK4 reference."""
 
@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from analysis.grid import expand_grid
-from analysis.regime_pipeline import classify_points, integrator, poincare_array, simulate_points
+from analysis.pipeline.grid import expand_grid
+from analysis.pipeline.stages import classify_points, integrator, poincare_array, simulate_points
 
 
 def test_auto_integrator_is_expo_for_stick_slip_and_rk4_for_the_regularised_laws():

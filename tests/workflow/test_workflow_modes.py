@@ -15,7 +15,7 @@ import yaml
 from beamsim.mode_cache import cache_key, read_geometry, read_modes
 from beamsim.modes import arch_modes
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def snakemake(workdir: Path, *args: str) -> subprocess.CompletedProcess:
@@ -56,7 +56,8 @@ def test_modes_rule_writes_cache_and_reruns_only_on_geometry_change(tmp_path):
     for name in ("modes.parquet", "characteristic_function.png", "mode_shapes.png"):
         assert (out / name).stat().st_size > 0
     geom = read_geometry(out / "modes.parquet")
-    assert {k: geom[k] for k in ("alpha", "beta", "bc", "n_modes")} == {"alpha": 0.02, "beta": 0.5, "bc": "clamped-free", "n_modes": 3}
+    assert ({k: geom[k] for k in ("alpha", "beta", "bc", "n_modes")}
+            == {"alpha": 0.02, "beta": 0.5, "bc": "clamped-free", "n_modes": 3})
     cached = read_modes(out / "modes.parquet")
     fresh = arch_modes(0.02, 0.5, 3)
     np.testing.assert_allclose(cached.lam, fresh.lam, rtol=1e-12)

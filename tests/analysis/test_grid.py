@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from analysis.grid import axis_values, chunk_points, expand_grid, point_id
-from analysis.point_store import PointStore
+from analysis.pipeline.grid import axis_values, chunk_points, expand_grid, point_id
+from analysis.pipeline.store import PointStore
 
 DEFAULTS = {"alpha1": 0.005, "alpha2": 0.005, "beta": 0.4, "mu_s": 0.3, "mu_k": 0.3, "p": 1e-4,
             "f0_rel": 2.0, "Omega": 1.0, "law": "stick-slip"}

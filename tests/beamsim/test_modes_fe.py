@@ -1,6 +1,6 @@
-"""beamsim.modes.arch_modes against the independent frame FE model (tests/fe_frame_arch.py).
+"""beamsim.modes.arch_modes against the independent frame FE model (tests/support/fe_frame_arch.py).
 
-The FE model is validated on its own in tests/test_fe_frame_arch.py (straight-beam limit,
+The FE model is validated on its own in tests/beamsim/test_fe_frame_arch.py (straight-beam limit,
 complete ring closed form, published 97-degree arch, NAFEMS ring); its Richardson-
 extrapolated eigenvalues are accurate to ~1e-6 relative or better, its shapes to ~1e-7.
 Here: first four eigenvalues to 1e-3 relative, and the mass-normalised shapes W, U, W'
@@ -17,7 +17,6 @@ import os
 
 import numpy as np
 import pytest
-
 from fe_frame_arch import arch_lam_fe, arch_shapes_fe
 
 CASES = [

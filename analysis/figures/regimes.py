@@ -6,11 +6,11 @@ from __future__ import annotations
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-from matplotlib.colors import ListedColormap, TwoSlopeNorm  # noqa: E402
-from matplotlib.patches import Patch  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+from matplotlib.colors import ListedColormap, TwoSlopeNorm
+from matplotlib.patches import Patch
 
 #: colour of each label (periodic orbits of period > 1 get a darker blue)
 LABEL_COLOURS = {
@@ -149,7 +149,7 @@ def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: in
     symmetric about 0 and covers the :data:`LLE_RANGE_QUANTILE` quantile of ``|lambda_1 T|``
     (a few outliers would otherwise wash out the map), at least ``resolution`` (the
     ``lambda_1 T`` below which the estimators call the exponent zero,
-    :func:`analysis.regime_pipeline.lle_resolution`); cells beyond it take the end colours and
+    :func:`analysis.pipeline.stages.lle_resolution`); cells beyond it take the end colours and
     carry their value as text."""
     axes = list(grid["axes"])
     period = 2.0 * np.pi / table["omega"]

@@ -35,7 +35,7 @@ from analysis.regimes import (
     is_settled,
     lle_per_period_from_rate,
 )
-from analysis.zero_one_test import oversampling_stride, zero_one_test
+from analysis.zero_one import oversampling_stride, zero_one_test
 
 GOLD = (np.sqrt(5.0) - 1.0) / 2.0
 SQ2 = np.sqrt(2.0) - 1.0

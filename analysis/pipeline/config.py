@@ -1,0 +1,85 @@
+"""The pipeline's numerical settings: one typed bundle, the defaults in one place.
+
+``config/config.yaml`` (section ``numerics``) and :class:`Numerics` hold the same defaults (a
+test checks it); a key left out of the config takes the default here, and every stage reads its
+settings from a :class:`Numerics`, never from a ``dict.get(key, default)`` of its own.  The
+settings that change results (:meth:`Numerics.result_dict`: everything but ``chunk_size``)
+enter every point's id (:func:`analysis.pipeline.grid.point_id`) fully resolved, so a
+computation has one id whether a setting was written out or left to its default.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field, fields
+from typing import Any, Mapping
+
+__all__ = ["LyapunovNumerics", "Numerics", "as_numerics"]
+
+#: reference-run integrators the pipeline accepts (``auto``: :func:`analysis.pipeline.stages.integrator`)
+METHODS = ("auto", "expo", "rk4", "newmark")
+
+
+@dataclass(frozen=True)
+class LyapunovNumerics:
+    """Settings of the Lyapunov stage.
+
+    n_periods : length of every synchronisation test and of the Benettin run, in forcing
+        periods; ``lambda_1 T`` below ``5 / n_periods`` is reported as zero.
+    step_factor : RK4 step of the Lyapunov runs, ``h = step_factor / omega_max``.
+    nolds_emb_dim : embedding dimension of the Rosenstein (nolds) estimate.
+    """
+
+    n_periods: int = 25
+    step_factor: float = 0.5
+    nolds_emb_dim: int = 6
+
+
+@dataclass(frozen=True)
+class Numerics:
+    """Settings of the reference runs (and, in ``lyapunov``, of the Lyapunov stage).
+
+    method : integrator of the reference runs, one of :data:`METHODS`.
+    step_factor : RK4 step ``h = step_factor / omega_max`` (ignored with ``steps_per_period``).
+    steps_per_period : fixed RK4 steps per forcing period, or ``None``.
+    n_transient, n_record : forcing periods discarded / recorded (Poincare samples).
+    chunk_size : grid points per job (not part of a point's id).
+    """
+
+    method: str = "auto"
+    step_factor: float = 1.0
+    steps_per_period: int | None = None
+    n_transient: int = 200
+    n_record: int = 128
+    chunk_size: int = 100
+    lyapunov: LyapunovNumerics = field(default_factory=LyapunovNumerics)
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> Numerics:
+        """From the config's ``numerics`` section (missing keys take the defaults)."""
+        known = {f.name for f in fields(cls)}
+        unknown = set(d) - known
+        if unknown:
+            raise ValueError(f"numerics: unknown key(s) {sorted(unknown)}; allowed: {sorted(known)}")
+        kw = dict(d)
+        lyap = dict(kw.pop("lyapunov", None) or {})
+        known_l = {f.name for f in fields(LyapunovNumerics)}
+        if set(lyap) - known_l:
+            raise ValueError(f"numerics.lyapunov: unknown key(s) {sorted(set(lyap) - known_l)}; "
+                             f"allowed: {sorted(known_l)}")
+        if kw.get("method", cls.method) not in METHODS:
+            raise ValueError(f"numerics.method = {kw['method']!r}; allowed: {', '.join(METHODS)}")
+        return cls(**kw, lyapunov=LyapunovNumerics(**lyap))
+
+    def result_dict(self) -> dict:
+        """The settings that change results, resolved, as they enter point ids and the rules'
+        parameters (``steps_per_period`` only when set)."""
+        out = asdict(self)
+        del out["chunk_size"]
+        if out["steps_per_period"] is None:
+            del out["steps_per_period"]
+        return out
+
+
+def as_numerics(numerics: Numerics | Mapping[str, Any]) -> Numerics:
+    """A :class:`Numerics` from itself or from a config-style mapping."""
+    return numerics if isinstance(numerics, Numerics) else Numerics.from_dict(numerics)

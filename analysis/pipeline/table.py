@@ -1,0 +1,93 @@
+"""The regime table: one row per grid point (parameters, label, exponents, indicators), and its
+Parquet file with the run's metadata (grid, config, config hash, package and results versions).
+Column meanings: docs/pipeline.md."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import pandas as pd
+
+from analysis.pipeline.grid import canonical_json
+from analysis.pipeline.stages import poincare_array
+
+__all__ = ["TABLE_COLUMNS", "assemble_regime_table", "package_versions", "read_regime_metadata",
+           "write_regime_table"]
+
+#: columns of the regime table besides the model parameters (docs/pipeline.md)
+TABLE_COLUMNS = (
+    "point_id", "label", "period", "lle_stefanski", "lle_benettin", "lle_nolds",
+    "lle_stefanski_lo", "lle_stefanski_hi", "K", "spectral_growth", "n_clusters", "slipped",
+    "t_first_slip", "stick_fraction", "diss_per_cycle", "f0", "f_cr", "omega", "Omega", "lam_f",
+    "diverged", "settled", "energy_residual_rel", "lle_stefanski_verdict", "reason",
+)
+
+
+def assemble_regime_table(grid_points: Sequence[dict], simulated: pd.DataFrame, lyapunov: pd.DataFrame,
+                          classified: pd.DataFrame) -> pd.DataFrame:
+    """Stage 4: one row per grid point in grid order (first axis slowest), parameters first."""
+    by_id = (classified.set_index("point_id")
+             .join(lyapunov.set_index("point_id"), rsuffix="_lle")
+             .join(simulated.set_index("point_id"), rsuffix="_sim"))
+    param_names = sorted({k for p in grid_points for k in p["params"]})
+    rows = []
+    for p in grid_points:
+        r = by_id.loc[p["point_id"]]
+        row = {k: p["params"].get(k) for k in param_names}
+        row.update({f"index_{i}": v for i, v in enumerate(p["index"])})
+        row.update({c: r[c] if c in r.index else None for c in TABLE_COLUMNS if c != "point_id"})
+        row["point_id"] = p["point_id"]
+        row["params_json"] = canonical_json(p["params"])
+        tip = poincare_array(r["poincare_tip"])
+        row["poincare_w_tip"] = tip[:, 0].tolist() if tip.size else []
+        rows.append(row)
+    table = pd.DataFrame(rows)
+    table["period"] = table["period"].astype("Int64")
+    return table
+
+
+def package_versions() -> dict:
+    """Versions of the packages a regime table depends on."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = {}
+    for name in ("beamsim", "numpy", "scipy", "numba", "pandas", "pyarrow", "nolds", "snakemake"):
+        try:
+            out[name] = version(name)
+        except PackageNotFoundError:
+            out[name] = None
+    return out
+
+
+def write_regime_table(table: pd.DataFrame, path: str, *, grid_name: str, grid: dict, config: dict,
+                       config_hash: str) -> None:
+    """Write the table to Parquet with ``beamsim.regimes`` metadata (grid, config, config hash,
+    package versions, the results and classifier versions); atomically, so a failed run never
+    leaves a partial table."""
+    import json
+    import os
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from analysis.pipeline.grid import RESULTS_VERSION
+    from analysis.regimes import CLASSIFIER_VERSION
+
+    tab = pa.Table.from_pandas(table, preserve_index=False)
+    meta = {"grid_name": grid_name, "grid": grid, "config": config, "config_hash": config_hash,
+            "versions": package_versions(), "results_version": RESULTS_VERSION,
+            "classifier_version": CLASSIFIER_VERSION}
+    tab = tab.replace_schema_metadata({**(tab.schema.metadata or {}),
+                                       b"beamsim.regimes": json.dumps(meta, sort_keys=True).encode()})
+    tmp = f"{path}.tmp"
+    pq.write_table(tab, tmp)
+    os.replace(tmp, path)
+
+
+def read_regime_metadata(path: str) -> dict:
+    """The ``beamsim.regimes`` metadata of a regime table."""
+    import json
+
+    import pyarrow.parquet as pq
+
+    return json.loads(pq.read_schema(path).metadata[b"beamsim.regimes"])

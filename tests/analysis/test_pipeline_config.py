@@ -1,0 +1,45 @@
+"""The pipeline's numerics: one typed bundle whose defaults are the shipped config's, and point
+ids that do not depend on whether a setting is written out or left to its default."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import yaml
+
+from analysis.pipeline.config import LyapunovNumerics, Numerics
+from analysis.pipeline.grid import point_id
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_defaults_are_the_shipped_config():
+    shipped = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())["numerics"]
+    assert Numerics.from_dict(shipped) == Numerics()
+    # every default is written out in the config (a reader sees the values that run)
+    assert set(shipped) | {"steps_per_period"} == set(Numerics.__dataclass_fields__)
+    assert set(shipped["lyapunov"]) == set(LyapunovNumerics.__dataclass_fields__)
+
+
+def test_point_id_is_the_same_for_a_default_left_out_or_written_out():
+    params = {"n_modes": 1, "Omega": 2.0}
+    full = Numerics().result_dict()
+    partial = {"method": "auto", "n_transient": 200, "n_record": 128}
+    assert point_id(params, partial) == point_id(params, full) == point_id(params, Numerics())
+    assert point_id(params, dict(partial, step_factor=0.5)) != point_id(params, full)
+    assert point_id(params, dict(partial, lyapunov={"n_periods": 50})) != point_id(params, full)
+
+
+def test_result_dict_leaves_out_chunk_size_and_an_unset_step_count():
+    d = Numerics(chunk_size=7).result_dict()
+    assert "chunk_size" not in d and "steps_per_period" not in d
+    assert Numerics(steps_per_period=64).result_dict()["steps_per_period"] == 64
+
+
+@pytest.mark.parametrize("bad, key", [({"step_size": 1.0}, "step_size"),
+                                      ({"lyapunov": {"periods": 3}}, "periods"),
+                                      ({"method": "euler"}, "euler")])
+def test_unknown_settings_are_named(bad, key):
+    with pytest.raises(ValueError, match=key):
+        Numerics.from_dict(bad)
