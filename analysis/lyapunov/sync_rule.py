@@ -13,7 +13,8 @@ Every Stefanski estimate in the project -- the generic one on a numba right-hand
 * the pair synchronises iff :math:`r(d) < 0`, or the last window sits at round-off
   (:data:`LOG_ROUNDOFF`); for a free (not renormalised) error the last window must also be
   below the start size ``e0`` (a saturated pair has :math:`r \approx 0 \pm` noise);
-* a diverged record (NaN or :math:`+\infty`) never synchronises.
+* a diverged record (NaN or :math:`+\infty`) never synchronises; :math:`-\infty` (exact
+  coincidence, which the beam's copies can reach) is kept and counts as synchronised.
 
 Constants:
 

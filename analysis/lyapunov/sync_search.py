@@ -35,7 +35,7 @@ from typing import Any, Callable
 import numpy as np
 
 from analysis.lyapunov.result import LLEResult
-from analysis.lyapunov.sync_rule import LOG_ROUNDOFF, TINY, exp_clip
+from analysis.lyapunov.sync_rule import LOG_ROUNDOFF, RK4_REAL_LIMIT, TINY, exp_clip
 
 __all__ = ["sync_search"]
 
@@ -162,7 +162,7 @@ def _extend_upwards(s: _Search, ds, log_err, synced, batch: int, d_cap: float, m
             return s.result(
                 value=float("nan"),
                 verdict=f"undetermined: no synchronisation up to d = {ds[-1]:.4g} "
-                        f"(RK4 limit 2.5/dt = {d_cap:.4g}); lambda_1 >= {ds[-1]:.4g} or "
+                        f"(RK4 limit {RK4_REAL_LIMIT:g}/dt = {d_cap:.4g}); lambda_1 >= {ds[-1]:.4g} or "
                         f"t_measure too short",
                 chaotic=True, bracket=(float(ds[-1]), float("inf")), sync_error=exp_clip(log_err),
                 sync_d=ds, extras={"omega_c": s.omega_c})

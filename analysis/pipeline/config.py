@@ -13,10 +13,13 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any, Mapping
 
+from beamsim.simulate import METHODS as SIMULATOR_METHODS
+
 __all__ = ["LyapunovNumerics", "Numerics", "as_numerics"]
 
-#: reference-run integrators the pipeline accepts (``auto``: :func:`analysis.pipeline.stages.integrator`)
-METHODS = ("auto", "expo", "rk4", "newmark")
+#: reference-run integrators the pipeline accepts: the simulator's, and ``auto``
+#: (:func:`analysis.pipeline.stages.integrator`)
+METHODS = ("auto", *SIMULATOR_METHODS)
 
 
 @dataclass(frozen=True)

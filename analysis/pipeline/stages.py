@@ -42,9 +42,9 @@ def compile_kernels(stage: str, methods: Sequence[str] = ("expo",), threads: int
     """Compile (or load from numba's on-disk cache) the kernels of one pipeline stage by running
     them once on a one-mode point for a few forcing periods: ``"simulate"`` compiles the reference
     integrators in ``methods``, ``"lyapunov"`` the drive/copy kernel
-    (:func:`beamsim.coupled_copies.run_copies`).  Compilation is single-threaded and takes
-    30-45 s per stage on a fresh install; as separate one-thread jobs the two stages compile
-    side by side instead of each delaying its first chunk.  Returns the wall time [s]."""
+    (:func:`beamsim.coupled_copies.run_copies`).  Compilation is single-threaded (its time on a
+    fresh install: docs/pipeline.md); as separate one-thread jobs the two stages compile side by
+    side instead of each delaying its first chunk.  Returns the wall time [s]."""
     from beamsim.simulate import prepare_point, simulate_batch
 
     t0 = time.perf_counter()
@@ -68,13 +68,11 @@ def compile_kernels(stage: str, methods: Sequence[str] = ("expo",), threads: int
 # ----------------------------------------------------------------------------- simulate
 def integrator(method: str, params: dict) -> str:
     """Integrator of a point's reference run.  ``auto``: ``expo`` for the stick-slip law (exact
-    between located switches, so the stiff stuck interface costs no steps; on a periodic orbit
-    it is 5e-6 of the coordinates and 1e-3 of the velocities, which carry the fast interface
-    modes, away from the RK4 reference (docs/model.md); it gives the same labels and is
-    1.3-4x faster on the two-mode default grid, docs/pipeline.md), the RK4 reference for the
-    regularised laws (which ``expo`` does not support).  The Lyapunov stage always integrates with RK4
-    (:mod:`beamsim.coupled_copies`): ``expo``'s event-location error would be measured by
-    copies 1e-6 apart."""
+    between located switches, so the stiff stuck interface costs no steps; its distance to the
+    RK4 reference and its labels and cost on the default grid: docs/model.md, docs/pipeline.md),
+    the RK4 reference for the regularised laws (which ``expo`` does not support).  The Lyapunov
+    stage always integrates with RK4 (:mod:`beamsim.coupled_copies`): ``expo``'s event-location
+    error would be measured by copies 1e-6 apart."""
     if method != "auto":
         return method
     return "expo" if params.get("law", "stick-slip") == "stick-slip" else "rk4"
