@@ -21,7 +21,7 @@ from beamsim.two_layer import (
     pressure_at,
 )
 
-__all__ = ["PreparedPoint", "prepare_point", "period_steps", "stack_points", "POINT_KEYS"]
+__all__ = ["PreparedPoint", "check_point", "prepare_point", "period_steps", "stack_points", "POINT_KEYS"]
 
 #: steps per forcing period of the fixed-grid integrators (RK4's follows from its stability)
 DEFAULT_STEPS_PER_PERIOD = {"expo": 64, "newmark": 256}
@@ -69,6 +69,28 @@ def _split(point: dict):
     return geom, fric
 
 
+def check_point(point: dict) -> tuple[Geometry, Friction]:
+    """Every rule a parameter point must satisfy that needs no model to be built: known keys;
+    the geometry's and the friction law's values and cross rules (:class:`Geometry`,
+    :class:`Friction`: e.g. ``mu_k <= mu_s``, ``F_c <= F_s``, finite values); at most one load
+    (``f0`` or ``f0_rel``, finite, ``>= 0``) and at most one frequency (``omega``, ``lam_f`` or
+    ``Omega``, finite, ``> 0``).  Raises ValueError naming the parameter; returns the checked
+    geometry and friction law.  :func:`prepare_point` starts with it, and the workflow runs it
+    on every grid point before any job (:mod:`analysis.pipeline.validation`)."""
+    geom, fric = _split(point)
+    if point.get("f0") is not None and point.get("f0_rel") is not None:
+        raise ValueError("give only one of f0 and f0_rel")
+    for key in ("f0", "f0_rel"):
+        if point.get(key) is not None:
+            check_nonnegative(key, point[key])
+    given = [k for k in ("omega", "lam_f", "Omega") if point.get(k) is not None]
+    if len(given) > 1:
+        raise ValueError(f"give only one of omega, lam_f, Omega (got {given})")
+    for key in given:
+        check_positive(key, point[key])
+    return geom, fric
+
+
 def prepare_point(**point) -> PreparedPoint:
     """Validate one parameter point and derive the kernel inputs.
 
@@ -80,13 +102,11 @@ def prepare_point(**point) -> PreparedPoint:
     0 stuck, +-1 slipping in that direction; default 0; stick-slip law only).  A point can be
     restarted from ``SimResult.final_state`` with :func:`restart_params`.
     """
-    geom, fric = _split(point)
+    geom, fric = check_point(point)
     model = build_model(geom)
     pj = pressure_at(model.theta_q, fric.p, fric.p_profile)
     f_cr = model.f_cr(fric.mu_s, fric.p, fric.p_profile)
     # load amplitude
-    if "f0" in point and point["f0"] is not None and point.get("f0_rel") is not None:
-        raise ValueError("give only one of f0 and f0_rel")
     if point.get("f0") is not None:
         f0 = check_nonnegative("f0", point["f0"])
     else:
@@ -100,8 +120,6 @@ def prepare_point(**point) -> PreparedPoint:
             f0 = rel * f_cr
     # frequency
     given = [k for k in ("omega", "lam_f", "Omega") if point.get(k) is not None]
-    if len(given) > 1:
-        raise ValueError(f"give only one of omega, lam_f, Omega (got {given})")
     key = given[0] if given else "Omega"
     if key == "omega":
         omega = check_positive("omega", point["omega"])

@@ -90,12 +90,13 @@ class GridPoint:
 
 def expand_grid(name: str, grid: dict, model_defaults: dict, numerics: Numerics | dict) -> list[GridPoint]:
     """All points of a grid, in axis order (first axis slowest)."""
+    from beamsim.point import POINT_KEYS
+
     axes = grid.get("axes", {})
-    unknown = set(axes) | set(grid.get("fixed", {}))
-    unknown -= set(model_defaults)
+    known = set(model_defaults) | set(POINT_KEYS)
+    unknown = (set(axes) | set(grid.get("fixed", {}))) - known
     if unknown:
-        raise ValueError(f"grid {name}: unknown parameter(s) {sorted(unknown)}; "
-                         f"allowed: {sorted(model_defaults)}")
+        raise ValueError(f"grid {name}: unknown parameter(s) {sorted(unknown)}; allowed: {sorted(known)}")
     both = set(axes) & set(grid.get("fixed", {}))
     if both:
         raise ValueError(f"grid {name}: {sorted(both)} given both as axis and as fixed")

@@ -3,6 +3,7 @@ the value and the allowed range (``workflow/schemas`` holds the rules)."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import jsonschema
@@ -10,7 +11,7 @@ import yaml
 from snakemake.exceptions import WorkflowError
 from snakemake.utils import validate
 
-__all__ = ["allowed", "validate_config", "validate_grid_values"]
+__all__ = ["allowed", "validate_config", "validate_grid_points", "validate_grid_values", "validate_model"]
 
 
 def allowed(schema: dict) -> str:
@@ -36,9 +37,25 @@ def _one_line(err) -> str:
     return f"{key}: {err.message}"
 
 
+def _non_finite(obj, path: str = ""):
+    """The first ``(key path, value)`` of a NaN or infinite number in a nested config, or None
+    (JSON Schema's ``number`` admits both, and every range comparison with NaN is false)."""
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return path or "(top level)", obj
+    items = obj.items() if isinstance(obj, dict) else enumerate(obj) if isinstance(obj, list) else ()
+    for k, v in items:
+        found = _non_finite(v, f"{path}.{k}" if path else str(k))
+        if found:
+            return found
+    return None
+
+
 def validate_config(cfg: dict, schema_file: Path, what: str) -> None:
     """``snakemake.utils.validate``, with a failure reduced to one line naming the key; ``what``
-    (the file checked) ends the message."""
+    (the file checked) ends the message.  NaN and infinite numbers are refused everywhere."""
+    bad = _non_finite(cfg)
+    if bad:
+        raise WorkflowError(f"invalid config: {bad[0]} = {bad[1]!r}: must be a finite number [{what}]")
     try:
         validate(cfg, str(schema_file))
     except WorkflowError:
@@ -67,3 +84,38 @@ def validate_grid_values(grids: dict, model_schema: dict, grid_file: str) -> Non
                 raise WorkflowError(f"invalid config: grids.{name}.{where} = {value!r} "
                                     f"({props[key].get('description', '')}); allowed: "
                                     f"{allowed(props[key])} [{grid_file}]")
+
+
+def validate_grid_points(points: dict, grids: dict, grid_file: str) -> None:
+    """Every point of every grid (``points``: grid name -> its ``GridPoint`` list) must pass the
+    model's own parameter rules (:func:`beamsim.point.check_point`: the same rules the Python
+    API applies, e.g. ``mu_k <= mu_s``, one of ``f0`` / ``f0_rel``), checked before any job; the
+    message names the grid, the point's axis values and the rule."""
+    from analysis.pipeline.grid import canonical_json
+    from beamsim.point import check_point
+
+    seen = set()
+    for name, pts in points.items():
+        axes = list(grids[name].get("axes", {}))
+        for p in pts:
+            key = canonical_json(p.params)
+            if key in seen:
+                continue
+            seen.add(key)
+            try:
+                check_point(dict(p.params))
+            except ValueError as exc:
+                where = ", ".join(f"{a}={p.params[a]!r}" for a in axes)
+                raise WorkflowError(f"invalid config: grids.{name} (point {where}): {exc} "
+                                    f"[{grid_file}]") from None
+
+
+def validate_model(model: dict, what: str) -> None:
+    """The config's model defaults are a parameter point too: they must pass the model's rules
+    (:func:`beamsim.point.check_point`) even where every grid overrides the offending value."""
+    from beamsim.point import check_point
+
+    try:
+        check_point({k: v for k, v in model.items() if v is not None})
+    except ValueError as exc:
+        raise WorkflowError(f"invalid config: model: {exc} [{what}]") from None

@@ -94,6 +94,8 @@ def built_workdir(tmp_path_factory):
         ({"n_modes": 0}, "modes.n_modes", ">= 1"),
         ({"mu_s": -0.1}, "model.mu_s", ">= 0"),
         ({"law": "viscous"}, "model.law", "stick-slip"),
+        ({"mu_s": float("nan")}, "model.mu_s", "finite"),
+        ({"mu_k": 0.9}, "model", "mu_s must be >= mu_k"),  # a cross rule of the model
     ],
 )
 def test_bad_config_fails_before_any_job_and_changes_nothing(built_workdir, override, key, allowed):

@@ -125,6 +125,14 @@ def test_same_config_same_table_whatever_the_core_count(first_run, tmp_path):
         ({"grids": {"g": {"axes": {"Omgea": [1.0]}}}}, "unknown model parameter 'Omgea'"),
         ({"grids": {"g": {"axes": {"Omega": [1.0]}, "fixed": {"mu_s": -1}}}}, "grids.g.fixed.mu_s = -1"),
         ({"grids": {"g": {"axes": {"Omega": {"range": [1, 2]}}}}}, "grids.g.axes.Omega"),
+        # non-finite values, cross-field rules of the model, contradictory grids
+        ({"grids": {"g": {"axes": {"Omega": [1.0, float("nan")]}}}}, "grids.g.axes.Omega.1 = nan"),
+        ({"grids": {"g": {"axes": {"Omega": {"range": [1.25, float("inf")], "num": 3}}}}},
+         "grids.g.axes.Omega.range.1 = inf"),
+        ({"grids": {"g": {"axes": {"Omega": [1.0]}, "fixed": {"mu_s": 0.45, "mu_k": 0.9}}}},
+         "mu_s must be >= mu_k"),
+        ({"grids": {"g": {"axes": {"Omega": [1.0]}, "fixed": {"f0": 1e-5}}}}, "only one of f0 and f0_rel"),
+        ({"grids": {"g": {"axes": {"Omega": [1.0]}, "fixed": {"Omega": 2.0}}}}, "both as axis and as fixed"),
     ],
 )
 def test_bad_grid_is_one_line_before_any_job(tmp_path, grid, expected):

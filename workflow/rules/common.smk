@@ -8,7 +8,12 @@ from snakemake.exceptions import WorkflowError
 from analysis.pipeline.config import Numerics
 from analysis.pipeline.grid import canonical_json, chunk_points, expand_grid
 from analysis.pipeline.stages import integrator
-from analysis.pipeline.validation import validate_config, validate_grid_values
+from analysis.pipeline.validation import (
+    validate_config,
+    validate_grid_points,
+    validate_grid_values,
+    validate_model,
+)
 from analysis.regimes import CLASSIFIER_VERSION
 from beamsim.mode_cache import model_cache_key
 
@@ -17,6 +22,7 @@ SCHEMAS = Path(workflow.basedir) / "workflow" / "schemas"
 
 
 validate_config(config, SCHEMAS / "config.schema.yaml", "config")
+validate_model(config["model"], "config")
 GRID_FILE = config.get("grid_file", "config/grid.yaml")
 try:
     GRIDS = yaml.safe_load(Path(GRID_FILE).read_text())
@@ -39,8 +45,12 @@ STORE_ROOT = "results/store"
 TABLE_CONFIG = {k: v for k, v in config.items() if k != "grid_file"}
 CONFIG_HASH = hashlib.sha256(canonical_json({"config": TABLE_CONFIG, "grids": GRIDS}).encode()).hexdigest()[:16]
 
-POINTS = {name: expand_grid(name, grid, config["model"], RESULT_NUMERICS)
-          for name, grid in GRIDS["grids"].items()}
+try:
+    POINTS = {name: expand_grid(name, grid, config["model"], RESULT_NUMERICS)
+              for name, grid in GRIDS["grids"].items()}
+except ValueError as exc:  # unknown parameter, axis and fixed naming one key, repeated points
+    raise WorkflowError(f"invalid config: {exc} [{GRID_FILE}]") from None
+validate_grid_points(POINTS, GRIDS["grids"], GRID_FILE)
 CHUNKS = {name: chunk_points(pts, NUMERICS.chunk_size) for name, pts in POINTS.items()}
 #: integrators of the reference runs (compile_kernels builds just these)
 SIMULATION_METHODS = sorted({integrator(NUMERICS.method, p.params)

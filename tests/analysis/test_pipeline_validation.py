@@ -1,0 +1,70 @@
+"""Config and grid checks (analysis.pipeline.validation): one line naming the key, before any
+work; the model's own parameter rules (beamsim.point.check_point) applied to every grid point."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+import yaml
+from snakemake.exceptions import WorkflowError
+
+from analysis.pipeline.grid import expand_grid
+from analysis.pipeline.validation import validate_config, validate_grid_points, validate_model
+from beamsim.point import check_point, prepare_point
+
+ROOT = Path(__file__).resolve().parents[2]
+SCHEMA = ROOT / "workflow" / "schemas" / "config.schema.yaml"
+
+
+def _config():
+    return yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+
+
+def test_shipped_config_passes():
+    validate_config(_config(), SCHEMA, "config")
+
+
+@pytest.mark.parametrize("key, value", [("mu_s", math.nan), ("p", math.inf), ("k_t", -math.inf)])
+def test_non_finite_model_value_is_named(key, value):
+    cfg = _config()
+    cfg["model"][key] = value
+    with pytest.raises(WorkflowError, match=rf"invalid config: model\.{key} = {value!r}: must be a finite"):
+        validate_config(cfg, SCHEMA, "config")
+
+
+def _points(fixed):
+    grids = {"g": {"axes": {"Omega": [1.0, 2.0]}, "fixed": fixed}}
+    cfg = _config()
+    return {"g": expand_grid("g", grids["g"], cfg["model"], cfg["numerics"])}, grids
+
+
+def test_grid_points_pass_the_model_rules():
+    validate_grid_points(*_points({"mu_s": 0.45, "mu_k": 0.3}), "grid.yaml")
+
+
+@pytest.mark.parametrize("fixed, rule", [
+    ({"mu_s": 0.45, "mu_k": 0.9}, "mu_s must be >= mu_k"),
+    ({"f0": 1e-5}, "only one of f0 and f0_rel"),
+    ({"law": "stribeck", "F_c": 2e-5, "F_s": 1e-5}, "F_s must be >= F_c"),
+])
+def test_grid_point_breaking_a_model_rule_is_one_line(fixed, rule):
+    with pytest.raises(WorkflowError, match=r"grids\.g \(point Omega=1\.0\): .*" + rule):
+        validate_grid_points(*_points(fixed), "grid.yaml")
+
+
+def test_check_point_is_the_rule_the_python_api_applies():
+    """One source: every point check_point refuses, prepare_point refuses with the same words."""
+    bad = dict(n_modes=1, mu_s=0.45, mu_k=0.9)
+    with pytest.raises(ValueError, match="mu_s must be >= mu_k") as a:
+        check_point(bad)
+    with pytest.raises(ValueError) as b:
+        prepare_point(**bad)
+    assert str(a.value) == str(b.value)
+
+
+def test_model_defaults_are_a_point_too():
+    validate_model(_config()["model"], "config")
+    with pytest.raises(WorkflowError, match=r"invalid config: model: mu_s must be >= mu_k"):
+        validate_model(dict(_config()["model"], mu_k=0.9), "config")
