@@ -3,6 +3,7 @@ the value and the allowed range (``workflow/schemas`` holds the rules)."""
 
 from __future__ import annotations
 
+import difflib
 import math
 from pathlib import Path
 
@@ -11,7 +12,8 @@ import yaml
 from snakemake.exceptions import WorkflowError
 from snakemake.utils import validate
 
-__all__ = ["allowed", "validate_config", "validate_grid_points", "validate_grid_values", "validate_model"]
+__all__ = ["allowed", "load_grid_file", "validate_config", "validate_grid_points", "validate_grid_values",
+           "validate_model"]
 
 
 def allowed(schema: dict) -> str:
@@ -33,8 +35,55 @@ def _one_line(err) -> str:
         return f"{key} = {err.instance!r} ({what}); allowed: {allowed(err.schema)}"
     if err.validator == "additionalProperties":
         keys = sorted(err.schema.get("properties", {}))
-        return f"{key}: {err.message}" + (f"; allowed keys: {', '.join(keys)}" if keys else "")
+        extra = sorted(set(err.instance) - set(keys)) if isinstance(err.instance, dict) else []
+        hint = "".join(_did_you_mean(k, keys) for k in extra)
+        return f"{key}: {err.message}{hint}" + (f"; allowed keys: {', '.join(keys)}" if keys else "")
     return f"{key}: {err.message}"
+
+
+def _did_you_mean(word: str, choices) -> str:
+    close = difflib.get_close_matches(str(word), list(choices), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """A YAML loader that refuses a key given twice in one mapping (PyYAML keeps the last)."""
+
+
+def _unique_mapping(loader, node, deep=False):
+    seen = set()
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        if key in seen:
+            raise yaml.constructor.ConstructorError(None, None, f"key {key!r} given twice",
+                                                    key_node.start_mark)
+        seen.add(key)
+    return loader.construct_mapping(node, deep=deep)
+
+
+_UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _unique_mapping)
+
+
+def load_grid_file(path: str) -> dict:
+    """The grid file as a mapping; a missing, unreadable, non-YAML, empty or non-mapping file, or
+    a key given twice, is one line naming the file (and the line of the YAML error)."""
+    try:
+        text = Path(path).read_text()
+    except FileNotFoundError:
+        raise WorkflowError(f"invalid config: grid_file {path!r} not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise WorkflowError(f"invalid config: grid_file {path!r} cannot be read: {exc}") from None
+    try:
+        grids = yaml.load(text, Loader=_UniqueKeyLoader)  # a SafeLoader subclass
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark else ""
+        what = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise WorkflowError(f"invalid config: {path} is not valid YAML{where}: {what} [{path}]") from None
+    if not isinstance(grids, dict):
+        kind = "empty" if grids is None else f"a {type(grids).__name__}, not a mapping"
+        raise WorkflowError(f"invalid config: {path} is {kind}; it must hold a 'grids:' mapping [{path}]")
+    return grids
 
 
 def _non_finite(obj, path: str = ""):
@@ -79,7 +128,8 @@ def validate_grid_values(grids: dict, model_schema: dict, grid_file: str) -> Non
         for where, key, value in entries:
             if key not in props:
                 raise WorkflowError(f"invalid config: grids.{name}.{where}: unknown model parameter "
-                                    f"{key!r}; allowed: {', '.join(sorted(props))} [{grid_file}]")
+                                    f"{key!r}{_did_you_mean(key, props)}; allowed: "
+                                    f"{', '.join(sorted(props))} [{grid_file}]")
             if list(jsonschema.Draft202012Validator(props[key]).iter_errors(value)):
                 raise WorkflowError(f"invalid config: grids.{name}.{where} = {value!r} "
                                     f"({props[key].get('description', '')}); allowed: "

@@ -11,7 +11,7 @@ import yaml
 from snakemake.exceptions import WorkflowError
 
 from analysis.pipeline.grid import expand_grid
-from analysis.pipeline.validation import validate_config, validate_grid_points, validate_model
+from analysis.pipeline.validation import load_grid_file, validate_config, validate_grid_points, validate_model
 from beamsim.point import check_point, prepare_point
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -68,3 +68,27 @@ def test_model_defaults_are_a_point_too():
     validate_model(_config()["model"], "config")
     with pytest.raises(WorkflowError, match=r"invalid config: model: mu_s must be >= mu_k"):
         validate_model(dict(_config()["model"], mu_k=0.9), "config")
+
+
+@pytest.mark.parametrize("text, words", [
+    (None, "not found"),
+    ("grids: {g: {axes: {Omega: [1.0, 2.0]}}", "is not valid YAML (line"),
+    ("", "is empty"),
+    ("- 1\n- 2\n", "a list, not a mapping"),
+    ("grids:\n  g:\n    axes: {Omega: [1.0]}\n  g:\n    axes: {Omega: [2.0]}\n", "key 'g' given twice"),
+])
+def test_unreadable_grid_file_is_one_line(tmp_path, text, words):
+    path = tmp_path / "grid.yaml"
+    if text is not None:
+        path.write_text(text)
+    with pytest.raises(WorkflowError) as err:
+        load_grid_file(str(path))
+    msg = str(err.value)
+    assert msg.startswith("invalid config:") and words in msg and "\n" not in msg, msg
+
+
+def test_unknown_key_gets_a_did_you_mean():
+    cfg = _config()
+    cfg["numerics"]["n_trasient"] = 10
+    with pytest.raises(WorkflowError, match=r"did you mean 'n_transient'\?"):
+        validate_config(cfg, SCHEMA, "config")

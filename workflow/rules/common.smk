@@ -9,6 +9,7 @@ from analysis.pipeline.config import Numerics
 from analysis.pipeline.grid import canonical_json, chunk_points, expand_grid
 from analysis.pipeline.stages import integrator
 from analysis.pipeline.validation import (
+    load_grid_file,
     validate_config,
     validate_grid_points,
     validate_grid_values,
@@ -24,10 +25,7 @@ SCHEMAS = Path(workflow.basedir) / "workflow" / "schemas"
 validate_config(config, SCHEMAS / "config.schema.yaml", "config")
 validate_model(config["model"], "config")
 GRID_FILE = config.get("grid_file", "config/grid.yaml")
-try:
-    GRIDS = yaml.safe_load(Path(GRID_FILE).read_text())
-except FileNotFoundError:
-    raise WorkflowError(f"invalid config: grid_file {GRID_FILE!r} not found")
+GRIDS = load_grid_file(GRID_FILE)
 validate_config(GRIDS, SCHEMAS / "grid.schema.yaml", GRID_FILE)
 validate_grid_values(
     GRIDS["grids"],
