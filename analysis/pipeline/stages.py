@@ -23,8 +23,16 @@ log = logging.getLogger("regimes")
 
 def _cached_stage(points: Sequence[dict], store: PointStore, compute: Callable[[list[dict]], list[dict]],
                   batch_size: int, stage: str) -> list[dict]:
-    """Records for ``points``: from the store where present, else ``compute``d in batches."""
-    todo = [p for p in points if not store.has(p["point_id"])]
+    """Records for ``points``: from the store where present (and loadable: a damaged record is
+    recomputed), else ``compute``d in batches."""
+    records = {}
+    for p in points:
+        rec = store.find(p["point_id"])
+        if rec is not None:
+            records[p["point_id"]] = rec
+        elif store.has(p["point_id"]):
+            log.info("%s: point %s: stored record does not load, recomputing", stage, p["point_id"])
+    todo = [p for p in points if p["point_id"] not in records]
     n, done = len(points), len(points) - len(todo)
     log.info("%s: %d points, %d cached, %d to compute", stage, n, done, len(todo))
     t0 = time.perf_counter()
@@ -32,9 +40,10 @@ def _cached_stage(points: Sequence[dict], store: PointStore, compute: Callable[[
         batch = todo[start:start + batch_size]
         for p, rec in zip(batch, compute(batch)):
             store.save(p["point_id"], rec)
+            records[p["point_id"]] = store.load(p["point_id"])  # as a later run reads it
         done += len(batch)
         log.info("%s: %d / %d points done (%.1f s)", stage, done, n, time.perf_counter() - t0)
-    return [store.load(p["point_id"]) for p in points]
+    return [records[p["point_id"]] for p in points]
 
 
 # ----------------------------------------------------------------------------- kernels

@@ -3,13 +3,16 @@
 The pipeline's chunk jobs look a point up here before computing it, so a point is computed
 once whatever grid or chunk asks for it (its id is a hash of its parameters, see
 :mod:`analysis.pipeline.grid`).  Files are written atomically (temporary name, then rename), so an
-interrupted job never leaves a half-written record that a later run would trust.
+interrupted job never leaves a half-written record that a later run would trust; a record that is
+damaged anyway (truncated by a full disk, edited by hand) does not load (:meth:`PointStore.find`)
+and is recomputed.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +35,15 @@ class PointStore:
             out = {k: z[k] for k in z.files if k != "__meta__"}
             out.update(json.loads(str(z["__meta__"])))
         return out
+
+    def find(self, pid: str) -> dict | None:
+        """The record of ``pid``, or None if there is none or it does not load (damaged)."""
+        if not self.has(pid):
+            return None
+        try:
+            return self.load(pid)
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+            return None
 
     def save(self, pid: str, record: dict) -> None:
         arrays = {k: np.asarray(v) for k, v in record.items() if isinstance(v, np.ndarray)}

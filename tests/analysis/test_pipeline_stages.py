@@ -8,7 +8,14 @@ import numpy as np
 import pandas as pd
 
 from analysis.pipeline.grid import expand_grid
-from analysis.pipeline.stages import classify_points, integrator, poincare_array, simulate_points
+from analysis.pipeline.stages import (
+    classify_points,
+    integrator,
+    lyapunov_points,
+    poincare_array,
+    simulate_points,
+)
+from analysis.pipeline.store import PointStore
 
 
 def test_auto_integrator_is_expo_for_stick_slip_and_rk4_for_the_regularised_laws():
@@ -73,3 +80,43 @@ def test_expo_and_rk4_reference_runs_give_the_same_labels(tmp_path):
                 qa, qb = np.quantile(xa[:, grp], qs, axis=0), np.quantile(xb[:, grp], qs, axis=0)
                 err = np.max(np.abs(qa - qb)) / size
                 assert err < 2e-2, (lab, err)
+
+
+def _payload(params_list, numerics):
+    from analysis.pipeline.grid import point_id
+
+    return [{"point_id": point_id(p, numerics), "params": p} for p in params_list]
+
+
+GOOD = {"n_modes": 1, "Omega": 2.5, "f0_rel": 2.0, "mu_s": 0.45, "mu_k": 0.3, "interface_damping": 0.5}
+# the interface dashpot's rate, 2 zeta_t omega_max = 20 omega_max, is far outside RK4's stability
+# interval at the pipeline's step h = 1 / omega_max: this (valid) point diverges with RK4
+UNSTABLE = dict(GOOD, interface_damping=10.0)
+RK4 = {"method": "rk4", "n_transient": 3, "n_record": 128, "step_factor": 1.0, "lyapunov": {"n_periods": 10}}
+
+
+def test_a_diverging_point_is_recorded_and_leaves_its_batch_alone(tmp_path):
+    both = _payload([GOOD, UNSTABLE], RK4)
+    sim = simulate_points(both, RK4, str(tmp_path / "both"), threads=2)
+    alone = simulate_points(both[:1], RK4, str(tmp_path / "alone"), threads=1)
+    assert list(sim["diverged"]) == [False, True]
+    for col in ("poincare_state", "final_state", "stick_fraction", "diss_per_cycle"):
+        assert np.asarray(sim[col][0]).tobytes() == np.asarray(alone[col][0]).tobytes(), col
+    lle = lyapunov_points(both, sim, RK4, str(tmp_path / "both"), threads=2)
+    assert lle["lle_stefanski_verdict"][1] == "not computed: diverged"
+    assert np.isfinite(lle["lle_stefanski"][0]) and np.isnan(lle["lle_stefanski"][1])
+    labels = classify_points(sim, lle)
+    assert labels["label"][1] == "diverged" and labels["reason"][1] == "integration diverged"
+    assert labels["label"][0] != "diverged"
+
+
+def test_a_damaged_store_record_is_recomputed_not_loaded(tmp_path):
+    pts = _payload([GOOD, dict(GOOD, Omega=1.5)], RK4)
+    first = simulate_points(pts, RK4, str(tmp_path), threads=2)
+    store = PointStore(tmp_path, "simulate")
+    path = store.path(pts[1]["point_id"])
+    path.write_bytes(path.read_bytes()[:200])  # truncated, as by a full disk
+    assert store.find(pts[1]["point_id"]) is None
+    again = simulate_points(pts, RK4, str(tmp_path), threads=2)
+    pd.testing.assert_frame_equal(again, first)
+    assert store.find(pts[1]["point_id"]) is not None

@@ -118,6 +118,19 @@ def test_same_config_same_table_whatever_the_core_count(first_run, tmp_path):
         read_regime_metadata(first_run / "results/regimes/tiny.parquet")["config_hash"]
 
 
+def test_same_table_whatever_the_chunk_size(first_run, tmp_path):
+    """Chunking is bookkeeping: one chunk of two points (here) or two chunks of one (first_run)
+    give the same table, row for row and bit for bit (the config hash differs: chunk_size is
+    part of the config)."""
+    other = setup_workdir(tmp_path / "chunks", chunk_size=2)
+    res = snakemake(other, "results/regimes/tiny.parquet", cores=1)
+    assert res.returncode == 0, res.stderr[-3000:]
+    a = pd.read_parquet(first_run / "results" / "regimes" / "tiny.parquet")
+    b = pd.read_parquet(other / "results" / "regimes" / "tiny.parquet")
+    assert len(list((other / "results" / "regimes" / "tiny" / "chunks").glob("*.simulate.parquet"))) == 1
+    pd.testing.assert_frame_equal(a, b, check_exact=True)
+
+
 @pytest.mark.parametrize(
     "grid,expected",
     [
