@@ -54,6 +54,10 @@ def _unique_mapping(loader, node, deep=False):
     seen = set()
     for key_node, _ in node.value:
         key = loader.construct_object(key_node, deep=deep)
+        try:
+            hash(key)
+        except TypeError:
+            continue  # construct_mapping reports the unhashable key
         if key in seen:
             raise yaml.constructor.ConstructorError(None, None, f"key {key!r} given twice",
                                                     key_node.start_mark)
