@@ -54,7 +54,10 @@ def install(timeout: float = 900) -> float:
 
     Returns the seconds spent (0.0 when nothing was missing). Package scripts are kept from
     starting the system's own munge/slurm services (policy-rc.d) so the only daemons that
-    run are the ones LocalSlurm starts.
+    run are the ones LocalSlurm starts. If another apt or dpkg holds its lock (an unattended
+    upgrade, a second test run), apt waits for it instead of failing at once: dpkg's lock through
+    ``DPkg::Lock::Timeout`` (the time left), the package lists' lock (which apt-get update does
+    not wait for) by retrying every 2 s.
     """
     if not missing_binaries():
         return 0.0
@@ -68,10 +71,15 @@ def install(timeout: float = 900) -> float:
         policy.chmod(0o755)
         made_policy = True
     try:
-        for cmd in (["apt-get", "update", "-q"],
-                    ["apt-get", "install", "-y", "-q", "--no-install-recommends", *APT_PACKAGES]):
+        for args in (["update", "-q"], ["install", "-y", "-q", "--no-install-recommends", *APT_PACKAGES]):
             left = timeout - (time.monotonic() - t0)
+            cmd = ["apt-get", "-o", f"DPkg::Lock::Timeout={max(int(left) - 5, 1)}", *args]
             res = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=max(left, 1))
+            while (res.returncode != 0 and "Could not get lock" in res.stderr
+                   and timeout - (time.monotonic() - t0) > 5):
+                time.sleep(2)
+                left = timeout - (time.monotonic() - t0)
+                res = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=max(left, 1))
             if res.returncode != 0:
                 raise RuntimeError(f"{' '.join(cmd)} failed ({res.returncode}):\n"
                                    f"{res.stdout[-2000:]}{res.stderr[-2000:]}")
