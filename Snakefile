@@ -1,7 +1,13 @@
 # Stick-slip regime maps of curved two-layer beams.  Rules live in workflow/rules/.
 from snakemake.utils import min_version
 
+from analysis.pipeline.plan import check_config_files
+
 min_version("9.0")
+
+
+# each config file a YAML mapping, no key twice (one-line errors; Snakemake's loader is silent)
+check_config_files(workflow.overwrite_configfiles or ["config/config.yaml"])
 
 
 configfile: "config/config.yaml"

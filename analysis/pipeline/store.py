@@ -2,7 +2,7 @@
 
 The pipeline's chunk jobs look a point up here before computing it, so a point is computed
 once whatever grid or chunk asks for it (its id is a hash of its parameters, see
-:mod:`analysis.pipeline.grid`).  Files are written atomically (temporary name, then rename), so an
+:mod:`analysis.pipeline.grid`).  Files are written atomically (:mod:`analysis.pipeline.atomic`), so an
 interrupted job never leaves a half-written record that a later run would trust; a record that is
 damaged anyway (truncated by a full disk, edited by hand) does not load (:meth:`PointStore.find`)
 and is recomputed.
@@ -11,11 +11,12 @@ and is recomputed.
 from __future__ import annotations
 
 import json
-import os
 import zipfile
 from pathlib import Path
 
 import numpy as np
+
+from analysis.pipeline.atomic import atomic_output
 
 
 class PointStore:
@@ -50,9 +51,8 @@ class PointStore:
         meta = {k: v for k, v in record.items() if not isinstance(v, np.ndarray)}
         path = self.path(pid)
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{pid}.{os.getpid()}.tmp.npz")
-        np.savez(tmp, __meta__=np.array(json.dumps(meta, default=_json_default)), **arrays)
-        os.replace(tmp, path)
+        with atomic_output(path) as tmp:
+            np.savez(tmp, __meta__=np.array(json.dumps(meta, default=_json_default)), **arrays)
 
 
 def _json_default(value):

@@ -8,6 +8,7 @@ from collections.abc import Sequence
 
 import pandas as pd
 
+from analysis.pipeline.atomic import atomic_output
 from analysis.pipeline.grid import canonical_json
 from analysis.pipeline.stages import poincare_array
 
@@ -65,7 +66,6 @@ def write_regime_table(table: pd.DataFrame, path: str, *, grid_name: str, grid: 
     package versions, the results and classifier versions); atomically, so a failed run never
     leaves a partial table."""
     import json
-    import os
 
     import pyarrow as pa
     import pyarrow.parquet as pq
@@ -79,9 +79,8 @@ def write_regime_table(table: pd.DataFrame, path: str, *, grid_name: str, grid: 
             "classifier_version": CLASSIFIER_VERSION}
     tab = tab.replace_schema_metadata({**(tab.schema.metadata or {}),
                                        b"beamsim.regimes": json.dumps(meta, sort_keys=True).encode()})
-    tmp = f"{path}.tmp"
-    pq.write_table(tab, tmp)
-    os.replace(tmp, path)
+    with atomic_output(path) as tmp:
+        pq.write_table(tab, tmp)
 
 
 def read_regime_metadata(path: str) -> dict:

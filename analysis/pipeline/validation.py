@@ -12,7 +12,7 @@ import yaml
 from snakemake.exceptions import WorkflowError
 from snakemake.utils import validate
 
-__all__ = ["allowed", "load_grid_file", "validate_config", "validate_grid_points", "validate_grid_values",
+__all__ = ["allowed", "load_yaml_mapping", "validate_config", "validate_grid_points", "validate_grid_values",
            "validate_model"]
 
 
@@ -68,26 +68,27 @@ def _unique_mapping(loader, node, deep=False):
 _UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _unique_mapping)
 
 
-def load_grid_file(path: str) -> dict:
-    """The grid file as a mapping; a missing, unreadable, non-YAML, empty or non-mapping file, or
-    a key given twice, is one line naming the file (and the line of the YAML error)."""
+def load_yaml_mapping(path: str, what: str, expected: str) -> dict:
+    """The YAML file ``path`` as a mapping; a missing, unreadable, non-YAML, empty or non-mapping
+    file, or a key given twice, is one line naming the file (``what``: its role, e.g.
+    ``grid_file``; ``expected``: what it must hold) and the line of the YAML error."""
     try:
         text = Path(path).read_text()
     except FileNotFoundError:
-        raise WorkflowError(f"invalid config: grid_file {path!r} not found") from None
+        raise WorkflowError(f"invalid config: {what} {path!r} not found") from None
     except (OSError, UnicodeDecodeError) as exc:
-        raise WorkflowError(f"invalid config: grid_file {path!r} cannot be read: {exc}") from None
+        raise WorkflowError(f"invalid config: {what} {path!r} cannot be read: {exc}") from None
     try:
-        grids = yaml.load(text, Loader=_UniqueKeyLoader)  # a SafeLoader subclass
+        data = yaml.load(text, Loader=_UniqueKeyLoader)  # a SafeLoader subclass
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark else ""
-        what = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise WorkflowError(f"invalid config: {path} is not valid YAML{where}: {what} [{path}]") from None
-    if not isinstance(grids, dict):
-        kind = "empty" if grids is None else f"a {type(grids).__name__}, not a mapping"
-        raise WorkflowError(f"invalid config: {path} is {kind}; it must hold a 'grids:' mapping [{path}]")
-    return grids
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise WorkflowError(f"invalid config: {path} is not valid YAML{where}: {problem} [{path}]") from None
+    if not isinstance(data, dict):
+        kind = "empty" if data is None else f"a {type(data).__name__}, not a mapping"
+        raise WorkflowError(f"invalid config: {path} is {kind}; it must hold {expected} [{path}]")
+    return data
 
 
 def _non_finite(obj, path: str = ""):

@@ -11,7 +11,12 @@ import yaml
 from snakemake.exceptions import WorkflowError
 
 from analysis.pipeline.grid import expand_grid
-from analysis.pipeline.validation import load_grid_file, validate_config, validate_grid_points, validate_model
+from analysis.pipeline.validation import (
+    load_yaml_mapping,
+    validate_config,
+    validate_grid_points,
+    validate_model,
+)
 from beamsim.point import check_point, prepare_point
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -82,7 +87,7 @@ def test_unreadable_grid_file_is_one_line(tmp_path, text, words):
     if text is not None:
         path.write_text(text)
     with pytest.raises(WorkflowError) as err:
-        load_grid_file(str(path))
+        load_yaml_mapping(str(path), "grid_file", "a 'grids:' mapping")
     msg = str(err.value)
     assert msg.startswith("invalid config:") and words in msg and "\n" not in msg, msg
 

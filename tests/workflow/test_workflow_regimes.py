@@ -3,14 +3,13 @@ reproducibility across core counts, and config errors that stop before any job."
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
-from pathlib import Path
 
 import pandas as pd
 import pytest
 import yaml
+from workflow_run import GRID, ROOT, setup_workdir, snakemake
 
 from analysis.pipeline.grid import RESULTS_VERSION
 from analysis.pipeline.table import read_regime_metadata
@@ -18,28 +17,6 @@ from analysis.regimes import CLASSIFIER_VERSION
 
 # the tests share one built working directory: keep them on one xdist worker
 pytestmark = pytest.mark.xdist_group("regimes")
-
-ROOT = Path(__file__).resolve().parents[2]
-GRID = {"grids": {"tiny": {"axes": {"f0_rel": [0.5, 3.0]}, "fixed": {"Omega": 2.5, "mu_s": 0.45, "mu_k": 0.3},
-                           "mark": [{"f0_rel": 3.0}]}}}
-
-
-def snakemake(workdir: Path, *args: str, cores: int = 2) -> subprocess.CompletedProcess:
-    cmd = [sys.executable, "-m", "snakemake", "-s", str(ROOT / "Snakefile"), "-d", str(workdir),
-           f"-c{cores}", *args, "--configfile", str(workdir / "config.yaml")]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=900,
-                          env=os.environ | {"PYTHONPATH": str(ROOT)})
-
-
-def setup_workdir(path: Path, grid: dict = GRID, **numerics) -> Path:
-    cfg = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
-    cfg["numerics"].update({"n_transient": 4, "n_record": 128, "chunk_size": 1} | numerics)
-    cfg["grid_file"] = str(path / "grid.yaml")
-    path.mkdir(parents=True, exist_ok=True)
-    (path / "config.yaml").write_text(yaml.safe_dump(cfg))
-    (path / "grid.yaml").write_text(yaml.safe_dump(grid))
-    return path
-
 
 @pytest.fixture(scope="module")
 def first_run(tmp_path_factory):

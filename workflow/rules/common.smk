@@ -1,58 +1,46 @@
-# Validates the config, loads the grids and provides input functions; nothing else.
-import hashlib
+# Checks the config and the grid file, plans the run and provides input functions; nothing else.
 from pathlib import Path
 
-import yaml
-from snakemake.exceptions import WorkflowError
+from snakemake.logging import logger
 
-from analysis.pipeline.config import Numerics
-from analysis.pipeline.grid import canonical_json, chunk_points, expand_grid
-from analysis.pipeline.stages import integrator
-from analysis.pipeline.validation import (
-    load_grid_file,
-    validate_config,
-    validate_grid_points,
-    validate_grid_values,
-    validate_model,
-)
+from analysis.pipeline.cost import estimate_run
+from analysis.pipeline.plan import build_plan
+from analysis.pipeline.preflight import check_results_dir, check_run_length
 from analysis.regimes import CLASSIFIER_VERSION
 from beamsim.mode_cache import model_cache_key
 
 
-SCHEMAS = Path(workflow.basedir) / "workflow" / "schemas"
-
-
-validate_config(config, SCHEMAS / "config.schema.yaml", "config")
-validate_model(config["model"], "config")
-GRID_FILE = config.get("grid_file", "config/grid.yaml")
-GRIDS = load_grid_file(GRID_FILE)
-validate_config(GRIDS, SCHEMAS / "grid.schema.yaml", GRID_FILE)
-validate_grid_values(
-    GRIDS["grids"],
-    yaml.safe_load((SCHEMAS / "config.schema.yaml").read_text())["$defs"]["model"],
-    GRID_FILE,
-)
-
-NUMERICS = Numerics.from_dict(config["numerics"])
+#: every check that can refuse an input runs here, while the workflow is parsed (before any job)
+PLAN = build_plan(config, Path(workflow.basedir) / "workflow" / "schemas")
+GRIDS = PLAN.grids
+POINTS = PLAN.points
+CHUNKS = PLAN.chunks
 #: numerics that change results, resolved (defaults filled in): they enter every point id
-RESULT_NUMERICS = NUMERICS.result_dict()
+RESULT_NUMERICS = PLAN.result_numerics
+CONFIG_HASH = PLAN.config_hash
+TABLE_CONFIG = PLAN.table_config
+#: integrators of the reference runs (compile_kernels builds just these)
+SIMULATION_METHODS = PLAN.simulation_methods
 #: the content-addressed per-point store (analysis.pipeline.store)
 STORE_ROOT = "results/store"
-#: the config as stored with every table and hashed: contents only (the grid file's location
-#: is not part of the result; its contents are)
-TABLE_CONFIG = {k: v for k, v in config.items() if k != "grid_file"}
-CONFIG_HASH = hashlib.sha256(canonical_json({"config": TABLE_CONFIG, "grids": GRIDS}).encode()).hexdigest()[:16]
 
-try:
-    POINTS = {name: expand_grid(name, grid, config["model"], RESULT_NUMERICS)
-              for name, grid in GRIDS["grids"].items()}
-except ValueError as exc:  # unknown parameter, axis and fixed naming one key, repeated points
-    raise WorkflowError(f"invalid config: {exc} [{GRID_FILE}]") from None
-validate_grid_points(POINTS, GRIDS["grids"], GRID_FILE)
-CHUNKS = {name: chunk_points(pts, NUMERICS.chunk_size) for name, pts in POINTS.items()}
-#: integrators of the reference runs (compile_kernels builds just these)
-SIMULATION_METHODS = sorted({integrator(NUMERICS.method, p.params)
-                             for pts in POINTS.values() for p in pts})
+
+if workflow.is_main_process:  # not in the per-job processes of a cluster executor
+    ESTIMATE = estimate_run([p for pts in POINTS.values() for p in pts], PLAN.numerics, STORE_ROOT)
+    logger.info(f"regimes: {ESTIMATE.summary(workflow.global_resources.get('_cores') or 1)}")
+
+
+onstart:
+    # a real run (not -n) with its jobs known: refuse it before the first job if too long
+    # without the opt-in, or if results/ cannot take the new files
+    jobs = {job.rule.name for job in workflow.dag.needrun_jobs()}
+    if jobs & {"simulate_chunk", "lyapunov_chunk"}:
+        # on a cluster: --jobs jobs at a time, each with the chunk rules' 2 threads
+        cores = (workflow.global_resources.get("_cores") or 1 if workflow.local_exec
+                 else 2 * (workflow.global_resources.get("_nodes") or 1))
+        check_run_length(ESTIMATE, cores, config.get("allow_long", False))
+    if jobs:
+        check_results_dir("results", ESTIMATE.disk_bytes)
 
 
 def chunk_ids(grid: str) -> list[str]:

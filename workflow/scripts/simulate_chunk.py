@@ -6,10 +6,11 @@ sys.stderr = open(snakemake.log[0], "w")
 
 import logging
 
+from analysis.pipeline.atomic import write_parquet
 from analysis.pipeline.stages import register_cached_modes, simulate_points
 
 logging.basicConfig(stream=sys.stderr, level=logging.INFO, format="%(asctime)s %(message)s")
 register_cached_modes(snakemake.input.modes)
 table = simulate_points(snakemake.params.points, snakemake.params.numerics,
                         store_root=snakemake.params.store, threads=snakemake.threads)
-table.to_parquet(snakemake.output.table, index=False)
+write_parquet(table, snakemake.output.table)

@@ -1,0 +1,126 @@
+"""What a run will cost, before it starts: new points and an estimated wall time.
+
+The estimate is a cost model, ``seconds = c * periods / Omega``, per stage and point:
+
+* simulate: ``c_sim(method, n_modes) * (n_transient + n_record) / Omega`` (RK4 also scaled by
+  ``1 / step_factor``): the integrators' cost is proportional to the simulated time, and a
+  forcing period is ``2 pi / (Omega omega_1)`` long;
+* lyapunov: ``c_lyap(n_modes) * n_periods / Omega * 0.5 / step_factor`` (the synchronisation
+  search and the Benettin run are a fixed number of ``n_periods``-long RK4 runs).
+
+The coefficients ``c`` (seconds per forcing period at ``Omega = 1``, one thread, after
+compilation) are measured, not typed: ``benchmarks/cost_model.py --write`` runs the stages on a
+few points and writes ``cost_model.yaml`` next to this module.  How close the estimate comes to
+measured runs is in docs/reliability.md.  A point counts as new for a stage when the
+content-addressed store (:mod:`analysis.pipeline.store`) holds no record of it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import yaml
+
+from analysis.pipeline.config import Numerics
+from analysis.pipeline.stages import integrator
+from analysis.pipeline.store import PointStore
+
+__all__ = ["COST_MODEL_FILE", "Estimate", "LONG_RUN_SECONDS", "estimate_run", "load_cost_model"]
+
+COST_MODEL_FILE = Path(__file__).with_name("cost_model.yaml")
+#: a run estimated longer than this on the current cores needs ``--config allow_long=true``
+LONG_RUN_SECONDS = 3600
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """The work a run still has to do.
+
+    points : grid points of the run (distinct ids).
+    new_simulate, new_lyapunov : points without a store record for that stage.
+    cpu_seconds : estimated single-thread time of the new work [s].
+    disk_bytes : estimated size of the new store records [bytes].
+    """
+
+    points: int
+    new_simulate: int
+    new_lyapunov: int
+    cpu_seconds: float
+    disk_bytes: float = 0.0
+
+    def wall_seconds(self, cores: int) -> float:
+        """Estimated wall time on ``cores`` cores (points are spread over threads and jobs)."""
+        return self.cpu_seconds / max(1, min(cores, max(self.new_simulate, self.new_lyapunov, 1)))
+
+    def summary(self, cores: int) -> str:
+        """One line: points, new points per stage, estimated time on ``cores`` cores."""
+        return (f"{self.points} points; to compute: {self.new_simulate} simulate, "
+                f"{self.new_lyapunov} lyapunov; estimated {_duration(self.wall_seconds(cores))} "
+                f"on {cores} core{'s' if cores != 1 else ''}")
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 5400:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+def load_cost_model(path: Path = COST_MODEL_FILE) -> dict:
+    """The measured coefficients: ``{"simulate": {method: {n_modes: c}}, "lyapunov": {n_modes: c},
+    "bytes_per_point": {n_modes: bytes}}``."""
+    return yaml.safe_load(Path(path).read_text())
+
+
+def _coefficient(table: Mapping, n_modes: int) -> float:
+    """``c`` at ``n_modes``; beyond the measured mode counts, extrapolated with the growth of
+    the last measured step (the cost per step grows with the state size)."""
+    known = sorted(int(k) for k in table)
+    if n_modes in known:
+        return float(table[n_modes])
+    if n_modes < known[0]:
+        return float(table[known[0]])
+    a, b = known[-2:] if len(known) > 1 else (known[-1], known[-1])
+    growth = (float(table[b]) / float(table[a])) ** (1.0 / max(b - a, 1)) if a != b else 1.0
+    return float(table[b]) * growth ** (n_modes - b)
+
+
+def point_seconds(params: Mapping, numerics: Numerics, model: Mapping, stages: Iterable[str]) -> float:
+    """Estimated single-thread seconds of one point's ``stages`` (``simulate``, ``lyapunov``)."""
+    n_modes = int(params.get("n_modes", 1))
+    omega = float(params.get("Omega", 1.0))
+    seconds = 0.0
+    if "simulate" in stages:
+        method = integrator(numerics.method, params)
+        c = _coefficient(model["simulate"][method], n_modes)
+        scale = 1.0 / numerics.step_factor if method == "rk4" else 1.0
+        seconds += c * (numerics.n_transient + numerics.n_record) * scale / omega
+    if "lyapunov" in stages:
+        c = _coefficient(model["lyapunov"], n_modes)
+        ly = numerics.lyapunov
+        seconds += c * ly.n_periods * (0.5 / ly.step_factor) / omega
+    return seconds
+
+
+def estimate_run(points: Iterable, numerics: Numerics, store_root: str | Path,
+                 model: Mapping | None = None) -> Estimate:
+    """Estimate of the work for ``points`` (objects with ``point_id`` and ``params``; the same
+    point in two grids counts once) given what ``store_root`` already holds."""
+    model = load_cost_model() if model is None else model
+    stores = {s: PointStore(store_root, s) for s in ("simulate", "lyapunov")}
+    unique = {p.point_id: p.params for p in points}
+    seconds, disk, new = 0.0, 0.0, {"simulate": 0, "lyapunov": 0}
+    for pid, params in unique.items():
+        todo = [s for s, store in stores.items() if not store.has(pid)]
+        for s in todo:
+            new[s] += 1
+        if todo:
+            seconds += point_seconds(params, numerics, model, todo)
+            disk += _coefficient(model["bytes_per_point"], int(params.get("n_modes", 1)))
+    if not math.isfinite(seconds):
+        seconds = math.inf
+    return Estimate(len(unique), new["simulate"], new["lyapunov"], seconds, disk)

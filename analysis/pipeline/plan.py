@@ -1,0 +1,93 @@
+"""The run plan: config and grid file checked and expanded, before any job (one pass).
+
+``workflow/rules/common.smk`` calls :func:`check_config_files` before Snakemake reads the
+config files and :func:`build_plan` right after, and nothing else: every check that can refuse
+an input runs here, so a bad input stops the workflow while it is parsed -- no job has run and
+nothing under ``results/`` exists or changed -- and the tests can run exactly the workflow's
+checks in-process (``tests/workflow/test_config_mutations.py``).  Every refusal is a
+``WorkflowError`` with one line, ``invalid config: <key> = <value> (...); allowed: ... [<file>]``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import yaml
+from snakemake.exceptions import WorkflowError
+
+from analysis.pipeline.config import Numerics
+from analysis.pipeline.grid import GridPoint, canonical_json, chunk_points, expand_grid
+from analysis.pipeline.stages import integrator
+from analysis.pipeline.validation import (
+    load_yaml_mapping,
+    validate_config,
+    validate_grid_points,
+    validate_grid_values,
+    validate_model,
+)
+
+__all__ = ["Plan", "RUN_ONLY_KEYS", "build_plan", "check_config_files"]
+
+#: config keys that steer a run but not its results: left out of the tables' config and hash
+RUN_ONLY_KEYS = ("grid_file", "allow_long")
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What the workflow will compute.
+
+    grid_file : the grid file read; grids : its contents (validated).
+    numerics : the resolved numerical settings; result_numerics : those that change results.
+    table_config : the config stored with every table (contents only, no run-only keys);
+    config_hash : 16 hex digits of ``table_config`` and ``grids``.
+    points : grid name -> its points in axis order; chunks : grid name -> its chunks.
+    simulation_methods : integrators of the reference runs.
+    """
+
+    grid_file: str
+    grids: dict
+    numerics: Numerics
+    result_numerics: dict
+    table_config: dict
+    config_hash: str
+    points: dict[str, list[GridPoint]]
+    chunks: dict[str, list[list[GridPoint]]]
+    simulation_methods: list[str]
+
+
+def check_config_files(paths) -> None:
+    """Each config file must be a YAML mapping without a key given twice (Snakemake's own loader
+    keeps the last of two and reports a syntax error without file or line)."""
+    for path in paths:
+        load_yaml_mapping(str(path), "config file", "'model:', 'numerics:' and 'modes:'")
+
+
+def build_plan(config: dict, schemas: Path) -> Plan:
+    """Check ``config`` (Snakemake's, defaults of the schema filled in place) and the grid file
+    it names against ``schemas`` (``config.schema.yaml``, ``grid.schema.yaml``) and the model's
+    rules, and expand the grids into points and chunks."""
+    validate_config(config, schemas / "config.schema.yaml", "config")
+    validate_model(config["model"], "config")
+    grid_file = config.get("grid_file", "config/grid.yaml")
+    grids = load_yaml_mapping(grid_file, "grid_file", "a 'grids:' mapping")
+    validate_config(grids, schemas / "grid.schema.yaml", grid_file)
+    model_schema = yaml.safe_load((schemas / "config.schema.yaml").read_text())["$defs"]["model"]
+    validate_grid_values(grids["grids"], model_schema, grid_file)
+
+    numerics = Numerics.from_dict(config["numerics"])
+    result_numerics = numerics.result_dict()
+    table_config = {k: v for k, v in config.items() if k not in RUN_ONLY_KEYS}
+    payload = canonical_json({"config": table_config, "grids": grids})
+    config_hash = hashlib.sha256(payload.encode()).hexdigest()[:16]
+    try:
+        points = {name: expand_grid(name, grid, config["model"], result_numerics)
+                  for name, grid in grids["grids"].items()}
+    except ValueError as exc:  # unknown parameter, axis and fixed naming one key, repeated points
+        raise WorkflowError(f"invalid config: {exc} [{grid_file}]") from None
+    validate_grid_points(points, grids["grids"], grid_file)
+    chunks = {name: chunk_points(pts, numerics.chunk_size) for name, pts in points.items()}
+    methods = sorted({integrator(numerics.method, p.params) for pts in points.values() for p in pts})
+    return Plan(grid_file, grids, numerics, result_numerics, table_config, config_hash, points, chunks,
+                methods)

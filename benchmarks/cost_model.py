@@ -1,0 +1,112 @@
+"""Measure the pipeline's cost per forcing period (the coefficients of analysis.pipeline.cost).
+
+The cost of a point depends on its regime (``expo`` crosses a stuck interval in one exact step
+but locates every switch of a slipping one; the Lyapunov stage's Stefanski search ends early on
+a contracting attractor and runs its full ladder on a chaotic one), so the coefficients are
+measured on the workload the pipeline ships: 8 points drawn (seed 0) from the default grid of
+``config/grid.yaml`` (its friction and axes; the mode count varied), run through the pipeline's
+stage functions (:func:`analysis.pipeline.stages.simulate_points`, :func:`lyapunov_points`) as
+one batch on one thread with the default numerics, after a warm-up that compiles the kernels.
+The coefficient is ``seconds / sum(periods / Omega)`` over the batch.  RK4 costs the same per
+step whatever the regime, so its coefficient comes from a short run (40 periods) of the same
+points.  Also measured: the store's bytes per point (the disk-space check before a run).
+
+Usage::
+
+    .venv/bin/python benchmarks/cost_model.py            # measure and print (3-5 minutes)
+    .venv/bin/python benchmarks/cost_model.py --write    # ... and update the cost model
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from analysis.pipeline.config import Numerics
+from analysis.pipeline.cost import COST_MODEL_FILE
+from analysis.pipeline.grid import expand_grid, point_id
+from analysis.pipeline.stages import compile_kernels, lyapunov_points, simulate_points
+
+N_POINTS = 8
+
+
+def sample_points(n_modes: int) -> list[dict]:
+    """``N_POINTS`` points of the shipped default grid (seed 0), with ``n_modes`` modes."""
+    cfg = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    grid = yaml.safe_load((ROOT / "config" / "grid.yaml").read_text())["grids"]["default"]
+    points = expand_grid("default", grid, cfg["model"], Numerics().result_dict())
+    pick = np.random.default_rng(0).choice(len(points), N_POINTS, replace=False)
+    return [dict(points[i].params, n_modes=n_modes) for i in sorted(pick)]
+
+
+def _bytes(folder: str) -> int:
+    return sum(f.stat().st_size for f in Path(folder).rglob("*") if f.is_file())
+
+
+def run_batch(n_modes: int, nm: Numerics, lyapunov: bool) -> dict:
+    """Seconds of each stage for the sample (an empty store), ``sum(1 / Omega)``, store bytes."""
+    params = sample_points(n_modes)
+    pts = [{"point_id": point_id(p, nm.result_dict()), "params": p} for p in params]
+    out = {"inv_omega": sum(1.0 / p["Omega"] for p in params)}
+    with tempfile.TemporaryDirectory() as store:
+        t0 = time.perf_counter()
+        sim = simulate_points(pts, nm, store)
+        out["simulate"] = time.perf_counter() - t0
+        if lyapunov:
+            t0 = time.perf_counter()
+            lyapunov_points(pts, sim, nm, store)
+            out["lyapunov"] = time.perf_counter() - t0
+        out["bytes_per_point"] = _bytes(store) / len(pts)
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--modes", type=int, nargs="*", default=[1, 2, 3])
+    ap.add_argument("--write", action="store_true", help=f"update {COST_MODEL_FILE.name}")
+    args = ap.parse_args(argv)
+
+    for stage in ("simulate", "lyapunov"):
+        compile_kernels(stage, methods=("expo", "rk4"))
+    model: dict = {"simulate": {"expo": {}, "rk4": {}}, "lyapunov": {}, "bytes_per_point": {}}
+    print("| stage | method | n_modes | periods per point | seconds (8 points) "
+          "| c [s per period at Omega = 1] |")
+    print("|---|---|---|---|---|---|")
+    for n_modes in args.modes:
+        default = Numerics(method="expo")
+        short = Numerics(method="rk4", n_transient=10, n_record=30)
+        for nm, lyap in ((default, True), (short, False)):
+            secs = run_batch(n_modes, nm, lyap)
+            periods = nm.n_transient + nm.n_record
+            c = secs["simulate"] / (periods * secs["inv_omega"])
+            model["simulate"][nm.method][n_modes] = round(c, 6)
+            print(f"| simulate | {nm.method} | {n_modes} | {periods} | {secs['simulate']:.1f} | {c:.5f} |",
+                  flush=True)
+            if lyap:
+                model["bytes_per_point"][n_modes] = int(secs["bytes_per_point"])
+                c = secs["lyapunov"] / (nm.lyapunov.n_periods * secs["inv_omega"])
+                model["lyapunov"][n_modes] = round(c, 6)
+                print(f"| lyapunov | rk4 copies | {n_modes} | {nm.lyapunov.n_periods} "
+                      f"| {secs['lyapunov']:.1f} | {c:.5f} |", flush=True)
+    print(yaml.safe_dump(model, sort_keys=True))
+    if args.write:
+        header = ("# Seconds per forcing period and point at Omega = 1, one thread, compiled kernels\n"
+                  "# (analysis.pipeline.cost).  Written by benchmarks/cost_model.py --write; do not\n"
+                  "# edit by hand.  lyapunov: per period of numerics.lyapunov.n_periods at step 0.5;\n"
+                  "# bytes_per_point: the store's records of one point (both stages).\n")
+        COST_MODEL_FILE.write_text(header + yaml.safe_dump(model, sort_keys=True))
+        print(f"wrote {COST_MODEL_FILE}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,81 @@
+"""The run-cost estimate (analysis.pipeline.cost) and the checks before a run
+(analysis.pipeline.preflight): what counts as new work, how the estimate scales, the opt-in for
+long runs; and through the workflow, a 10,000-point grid planned by a dry run but refused by a
+real run without ``allow_long``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from snakemake.exceptions import WorkflowError
+from workflow_run import setup_workdir, snakemake
+
+from analysis.pipeline.config import LyapunovNumerics, Numerics
+from analysis.pipeline.cost import LONG_RUN_SECONDS, Estimate, estimate_run, load_cost_model
+from analysis.pipeline.grid import expand_grid
+from analysis.pipeline.preflight import check_results_dir, check_run_length
+from analysis.pipeline.store import PointStore
+
+MODEL = {"n_modes": 2, "mu_s": 0.45, "mu_k": 0.3, "f0_rel": 2.0}
+
+
+def _points(omegas, numerics=Numerics()):
+    return expand_grid("g", {"axes": {"Omega": list(omegas)}}, MODEL, numerics.result_dict())
+
+
+def test_the_shipped_cost_model_covers_every_method_and_is_positive():
+    model = load_cost_model()
+    for table in (model["simulate"]["expo"], model["simulate"]["rk4"], model["lyapunov"],
+                  model["bytes_per_point"]):
+        assert sorted(table) == [1, 2, 3] and all(v > 0 for v in table.values())
+        assert table[1] <= table[2] <= table[3]  # more modes, more state: never cheaper
+
+
+def test_only_points_without_a_store_record_count_as_new(tmp_path):
+    pts = _points([1.5, 2.0, 3.0])
+    full = estimate_run(pts, Numerics(), tmp_path)
+    assert (full.points, full.new_simulate, full.new_lyapunov) == (3, 3, 3)
+    PointStore(tmp_path, "simulate").save(pts[0].point_id, {"x": np.zeros(2)})
+    part = estimate_run(pts, Numerics(), tmp_path)
+    assert (part.new_simulate, part.new_lyapunov) == (2, 3) and part.cpu_seconds < full.cpu_seconds
+    PointStore(tmp_path, "lyapunov").save(pts[0].point_id, {"x": np.zeros(2)})
+    assert estimate_run(pts, Numerics(), tmp_path).cpu_seconds == pytest.approx(
+        estimate_run(pts[1:], Numerics(), tmp_path).cpu_seconds)
+
+
+def test_the_estimate_scales_with_simulated_time(tmp_path):
+    one = estimate_run(_points([2.0]), Numerics(), tmp_path).cpu_seconds
+    assert estimate_run(_points([4.0]), Numerics(), tmp_path).cpu_seconds == pytest.approx(one / 2)
+    longer = Numerics(n_transient=2 * 200 + 128, lyapunov=LyapunovNumerics(n_periods=50))
+    assert estimate_run(_points([2.0], longer), longer, tmp_path).cpu_seconds == pytest.approx(2 * one)
+
+
+def test_a_long_run_needs_the_opt_in():
+    est = Estimate(points=10, new_simulate=10, new_lyapunov=10, cpu_seconds=4 * LONG_RUN_SECONDS)
+    check_run_length(est, cores=8, allow_long=False)  # half an hour on 8 cores
+    with pytest.raises(WorkflowError, match=r"^long run: .*allow_long=true"):
+        check_run_length(est, cores=2, allow_long=False)
+    check_run_length(est, cores=2, allow_long=True)
+
+
+def test_results_dir_check_wants_room_for_twice_the_new_records(tmp_path):
+    check_results_dir(tmp_path / "results" / "nested", need_bytes=1000)  # created later, parent writable
+    assert not (tmp_path / "results").exists()
+    with pytest.raises(WorkflowError, match=r"^cannot run: .* free, the new results need about"):
+        check_results_dir(tmp_path, need_bytes=1e18)
+
+
+@pytest.mark.xdist_group("regimes")
+def test_a_ten_thousand_point_grid_is_planned_by_a_dry_run_and_refused_without_opt_in(tmp_path):
+    grid = {"grids": {"huge": {"axes": {"Omega": {"range": [1.25, 8.0], "num": 100},
+                                        "f0_rel": {"range": [0.8, 3.0], "num": 100}},
+                               "fixed": {"mu_s": 0.45, "mu_k": 0.3}}}}
+    work = setup_workdir(tmp_path / "huge", grid=grid, n_transient=200, chunk_size=100)
+    dry = snakemake(work, "-n", "regimes")
+    assert dry.returncode == 0, dry.stderr[-2000:]
+    words = "regimes: 10000 points; to compute: 10000 simulate, 10000 lyapunov; estimated"
+    assert words in dry.stdout + dry.stderr
+    res = snakemake(work, "regimes")
+    lines = [ln for ln in (res.stdout + res.stderr).splitlines() if ln.startswith("long run:")]
+    assert res.returncode != 0 and len(lines) == 1 and "allow_long=true" in lines[0], res.stderr[-2000:]
+    assert not (work / "results").exists()

@@ -1,0 +1,42 @@
+"""Run the workflow on a throw-away working directory (a small config and grid), as a user would:
+``snakemake -s <repo>/Snakefile -d <workdir> --configfile <workdir>/config.yaml``."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import yaml
+
+ROOT = Path(__file__).resolve().parents[2]
+#: two points, one below and one above the slip onset, one of them marked
+GRID = {"grids": {"tiny": {"axes": {"f0_rel": [0.5, 3.0]}, "fixed": {"Omega": 2.5, "mu_s": 0.45, "mu_k": 0.3},
+                           "mark": [{"f0_rel": 3.0}]}}}
+
+
+def snakemake_command(workdir: Path, *args: str, cores: int = 2) -> list[str]:
+    return [sys.executable, "-m", "snakemake", "-s", str(ROOT / "Snakefile"), "-d", str(workdir),
+            f"-c{cores}", *args, "--configfile", str(workdir / "config.yaml")]
+
+
+def snakemake_env() -> dict:
+    return os.environ | {"PYTHONPATH": str(ROOT)}
+
+
+def snakemake(workdir: Path, *args: str, cores: int = 2) -> subprocess.CompletedProcess:
+    return subprocess.run(snakemake_command(workdir, *args, cores=cores), capture_output=True, text=True,
+                          timeout=900, env=snakemake_env())
+
+
+def setup_workdir(path: Path, grid: dict = GRID, **numerics) -> Path:
+    """``path`` with ``config.yaml`` (the shipped config, short runs, one point per chunk, and
+    ``numerics`` overrides) and ``grid.yaml``."""
+    cfg = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    cfg["numerics"].update({"n_transient": 4, "n_record": 128, "chunk_size": 1} | numerics)
+    cfg["grid_file"] = str(path / "grid.yaml")
+    path.mkdir(parents=True, exist_ok=True)
+    (path / "config.yaml").write_text(yaml.safe_dump(cfg))
+    (path / "grid.yaml").write_text(yaml.safe_dump(grid))
+    return path

@@ -1,0 +1,112 @@
+"""Interrupted runs resume: the workflow killed with SIGKILL (its whole process group, as a
+cluster's OOM killer or a lost node would) in the middle of a simulate chunk and in the middle of
+the table job, then rerun as the docs tell a user (``snakemake --unlock``, then the same
+command), gives the table of an uninterrupted run, bit for bit."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from workflow_run import setup_workdir, snakemake, snakemake_command, snakemake_env
+
+pytestmark = pytest.mark.xdist_group("interrupted")
+
+#: long enough (three modes, 100 + 128 periods) that a chunk job computes for seconds
+NUMERICS = {"n_transient": 100}
+TABLE = Path("results/regimes/tiny.parquet")
+
+
+def run_until(work: Path, condition, timeout: float = 600) -> bool:
+    """Start ``snakemake regimes`` in ``work``; SIGKILL its process group as soon as
+    ``condition()`` holds.  True if killed, False if the run ended first."""
+    proc = subprocess.Popen(snakemake_command(work, "regimes"), env=snakemake_env(), start_new_session=True,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + timeout
+    try:
+        while proc.poll() is None and time.monotonic() < deadline:
+            if condition():
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait()
+                return True
+            time.sleep(0.01)
+        return False
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+
+
+def resume(work: Path) -> subprocess.CompletedProcess:
+    """What a user does after a kill: the stale lock is refused with a hint, ``--unlock``, rerun."""
+    res = snakemake(work, "regimes")
+    if res.returncode != 0 and "--unlock" in res.stdout + res.stderr:
+        assert snakemake(work, "--unlock").returncode == 0
+        res = snakemake(work, "regimes")
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-3000:]
+    return res
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory) -> pd.DataFrame:
+    work = setup_workdir(tmp_path_factory.mktemp("uninterrupted"), **NUMERICS)
+    res = snakemake(work, "regimes")
+    assert res.returncode == 0, res.stderr[-3000:]
+    return pd.read_parquet(work / TABLE)
+
+
+def _computing(log: Path) -> bool:
+    """The chunk job of ``log`` has started computing and has not finished a point."""
+    try:
+        text = log.read_text()
+    except OSError:
+        return False
+    return "1 to compute" in text and "points done" not in text
+
+
+def test_killed_in_a_simulate_chunk_resumes_to_the_same_table(tmp_path, uninterrupted):
+    work = setup_workdir(tmp_path / "killed", **NUMERICS)
+    logs = [work / "logs/regimes/tiny" / f"simulate_{c:03d}.log" for c in range(2)]
+    assert run_until(work, lambda: any(_computing(log) for log in logs)), "the run ended before the kill"
+    killed = [log for log in logs if _computing(log)]
+    chunk = killed[0].stem.split("_")[1]
+    assert not (work / f"results/regimes/tiny/chunks/{chunk}.simulate.parquet").exists()
+    assert not (work / TABLE).exists()
+    resume(work)
+    assert "1 to compute" in killed[0].read_text()  # the killed point was recomputed, not half-loaded
+    pd.testing.assert_frame_equal(pd.read_parquet(work / TABLE), uninterrupted, check_exact=True)
+
+
+def test_killed_in_the_table_job_resumes_to_the_same_table(tmp_path, uninterrupted):
+    work = setup_workdir(tmp_path / "killed", **NUMERICS)
+    log = work / "logs/regimes/tiny/regime_table.log"
+    assert run_until(work, lambda: log.exists() and not (work / TABLE).exists()), "the run ended first"
+    assert not (work / TABLE).exists()
+    resume(work)
+    pd.testing.assert_frame_equal(pd.read_parquet(work / TABLE), uninterrupted, check_exact=True)
+
+
+def test_a_process_killed_while_writing_a_table_leaves_the_old_one(tmp_path):
+    """The atomic write itself, killed for real in the middle: a table big enough that writing
+    takes a while, SIGKILL as soon as its temporary file appears; the old table is untouched."""
+    target = tmp_path / "table.parquet"
+    pd.DataFrame({"x": [1.0, 2.0]}).to_parquet(target)
+    old = target.read_bytes()
+    code = ("import numpy as np, pandas as pd\n"
+            "from analysis.pipeline.atomic import write_parquet\n"
+            "df = pd.DataFrame(np.random.default_rng(0).random((4_000_000, 8)))\n"
+            "df.columns = [str(c) for c in df.columns]\n"
+            f"write_parquet(df, {str(target)!r})\n")
+    proc = subprocess.Popen([os.sys.executable, "-c", code], env=snakemake_env(), start_new_session=True)
+    deadline = time.monotonic() + 300
+    while proc.poll() is None and time.monotonic() < deadline and not list(tmp_path.glob(".table.*.tmp*")):
+        time.sleep(0.002)
+    assert proc.poll() is None, "the writer finished before the kill"
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    assert target.read_bytes() == old
