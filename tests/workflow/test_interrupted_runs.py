@@ -17,8 +17,8 @@ from workflow_run import setup_workdir, snakemake, snakemake_command, snakemake_
 
 pytestmark = pytest.mark.xdist_group("interrupted")
 
-#: long enough (three modes, 100 + 128 periods) that a chunk job computes for seconds
-NUMERICS = {"n_transient": 100}
+#: long enough (three modes, 30 + 128 periods) that a chunk job computes for a second or two
+NUMERICS = {"n_transient": 30}
 TABLE = Path("results/regimes/tiny.parquet")
 
 
