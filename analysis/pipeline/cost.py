@@ -31,7 +31,7 @@ from analysis.pipeline.store import PointStore
 __all__ = ["COST_MODEL_FILE", "Estimate", "LONG_RUN_SECONDS", "estimate_run", "load_cost_model"]
 
 COST_MODEL_FILE = Path(__file__).with_name("cost_model.yaml")
-#: a run estimated longer than this on the current cores needs ``--config allow_long=true``
+#: a run estimated longer than this on the current cores needs ``--config allow_long=True``
 LONG_RUN_SECONDS = 3600
 
 

@@ -6,7 +6,7 @@ on the current cores, :mod:`analysis.pipeline.cost`), and refuses -- one line, b
 nothing under ``results/`` created or changed -- a real run that
 
 * is estimated to take longer than :data:`~analysis.pipeline.cost.LONG_RUN_SECONDS` without the
-  opt-in ``--config allow_long=true``;
+  opt-in ``--config allow_long=True``;
 * cannot write into ``results/`` (a read-only mount, no permission);
 * would not fit on the disk: the free space is below twice the estimated size of the new
   store records (the tables and figures need a fraction of it more).
@@ -62,4 +62,4 @@ def check_run_length(estimate: Estimate, cores: int, allow_long: bool) -> None:
     if estimate.wall_seconds(cores) > LONG_RUN_SECONDS and not allow_long:
         raise WorkflowError(
             f"long run: {estimate.summary(cores)}, over the {LONG_RUN_SECONDS // 3600} h that start "
-            "without asking; start it with --config allow_long=true (or fewer points, more cores)")
+            "without asking; start it with --config allow_long=True (or fewer points, more cores)")

@@ -53,7 +53,7 @@ def test_the_estimate_scales_with_simulated_time(tmp_path):
 def test_a_long_run_needs_the_opt_in():
     est = Estimate(points=10, new_simulate=10, new_lyapunov=10, cpu_seconds=4 * LONG_RUN_SECONDS)
     check_run_length(est, cores=8, allow_long=False)  # half an hour on 8 cores
-    with pytest.raises(WorkflowError, match=r"^long run: .*allow_long=true"):
+    with pytest.raises(WorkflowError, match=r"^long run: .*allow_long=True"):
         check_run_length(est, cores=2, allow_long=False)
     check_run_length(est, cores=2, allow_long=True)
 
@@ -77,5 +77,8 @@ def test_a_ten_thousand_point_grid_is_planned_by_a_dry_run_and_refused_without_o
     assert words in dry.stdout + dry.stderr
     res = snakemake(work, "regimes")
     lines = [ln for ln in (res.stdout + res.stderr).splitlines() if ln.startswith("long run:")]
-    assert res.returncode != 0 and len(lines) == 1 and "allow_long=true" in lines[0], res.stderr[-2000:]
+    assert res.returncode != 0 and len(lines) == 1 and "allow_long=True" in lines[0], res.stderr[-2000:]
     assert not (work / "results").exists()
+    # the opt-in as the message spells it passes the config schema (Snakemake reads True as a bool)
+    opted = snakemake(work, "-n", "regimes", "--config", "allow_long=True")
+    assert opted.returncode == 0, opted.stderr[-2000:]
