@@ -13,7 +13,7 @@ points.  Also measured: the store's bytes per point (the disk-space check before
 
 Usage::
 
-    .venv/bin/python benchmarks/cost_model.py            # measure and print (3-5 minutes)
+    .venv/bin/python benchmarks/cost_model.py            # measure and print (minutes)
     .venv/bin/python benchmarks/cost_model.py --write    # ... and update the cost model
 """
 

@@ -17,7 +17,6 @@ content-addressed store (:mod:`analysis.pipeline.store`) holds no record of it.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -77,16 +76,14 @@ def load_cost_model(path: Path = COST_MODEL_FILE) -> dict:
 
 
 def _coefficient(table: Mapping, n_modes: int) -> float:
-    """``c`` at ``n_modes``; beyond the measured mode counts, extrapolated with the growth of
-    the last measured step (the cost per step grows with the state size)."""
-    known = sorted(int(k) for k in table)
-    if n_modes in known:
+    """``c`` at ``n_modes``; above the largest measured mode count, extrapolated with the growth
+    factor of its last step (the cost per step grows with the state size).  The table holds
+    consecutive mode counts from 1 (``benchmarks/cost_model.py``)."""
+    top = max(int(k) for k in table)
+    if n_modes <= top:
         return float(table[n_modes])
-    if n_modes < known[0]:
-        return float(table[known[0]])
-    a, b = known[-2:] if len(known) > 1 else (known[-1], known[-1])
-    growth = (float(table[b]) / float(table[a])) ** (1.0 / max(b - a, 1)) if a != b else 1.0
-    return float(table[b]) * growth ** (n_modes - b)
+    growth = float(table[top]) / float(table[top - 1]) if top > 1 else 1.0
+    return float(table[top]) * growth ** (n_modes - top)
 
 
 def point_seconds(params: Mapping, numerics: Numerics, model: Mapping, stages: Iterable[str]) -> float:
@@ -121,6 +118,4 @@ def estimate_run(points: Iterable, numerics: Numerics, store_root: str | Path,
         if todo:
             seconds += point_seconds(params, numerics, model, todo)
             disk += _coefficient(model["bytes_per_point"], int(params.get("n_modes", 1)))
-    if not math.isfinite(seconds):
-        seconds = math.inf
     return Estimate(len(unique), new["simulate"], new["lyapunov"], seconds, disk)

@@ -1,7 +1,7 @@
 """The run plan: config and grid file checked and expanded, before any job (one pass).
 
-``workflow/rules/common.smk`` calls :func:`check_config_files` before Snakemake reads the
-config files and :func:`build_plan` right after, and nothing else: every check that can refuse
+The Snakefile calls :func:`check_config_files` before Snakemake reads the config files, and
+``workflow/rules/common.smk`` calls :func:`build_plan` right after: every check that can refuse
 an input runs here, so a bad input stops the workflow while it is parsed -- no job has run and
 nothing under ``results/`` exists or changed -- and the tests can run exactly the workflow's
 checks in-process (``tests/workflow/test_config_mutations.py``).  Every refusal is a
@@ -38,7 +38,7 @@ RUN_ONLY_KEYS = ("grid_file", "allow_long")
 class Plan:
     """What the workflow will compute.
 
-    grid_file : the grid file read; grids : its contents (validated).
+    grids : the grid file's contents (validated).
     numerics : the resolved numerical settings; result_numerics : those that change results.
     table_config : the config stored with every table (contents only, no run-only keys);
     config_hash : 16 hex digits of ``table_config`` and ``grids``.
@@ -46,7 +46,6 @@ class Plan:
     simulation_methods : integrators of the reference runs.
     """
 
-    grid_file: str
     grids: dict
     numerics: Numerics
     result_numerics: dict
@@ -89,5 +88,5 @@ def build_plan(config: dict, schemas: Path) -> Plan:
     validate_grid_points(points, grids["grids"], grid_file)
     chunks = {name: chunk_points(pts, numerics.chunk_size) for name, pts in points.items()}
     methods = sorted({integrator(numerics.method, p.params) for pts in points.values() for p in pts})
-    return Plan(grid_file, grids, numerics, result_numerics, table_config, config_hash, points, chunks,
+    return Plan(grids, numerics, result_numerics, table_config, config_hash, points, chunks,
                 methods)

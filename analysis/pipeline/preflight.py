@@ -1,9 +1,9 @@
-"""Checks of the environment before a run starts: time and disk, while the workflow is parsed.
+"""Checks of the environment before a run starts: time and disk.
 
-``workflow/rules/common.smk`` runs these in Snakemake's main process when the regime targets
-may run.  It logs the work still to do (new points per stage, the estimated time
-on the current cores, :mod:`analysis.pipeline.cost`), and refuses -- one line, before any job,
-nothing under ``results/`` created or changed -- a real run that
+``workflow/rules/common.smk`` logs the work still to do while the workflow is parsed (new
+points per stage, the estimated time on the current cores, :mod:`analysis.pipeline.cost`), and
+runs these checks in Snakemake's ``onstart`` (main process, a real run, the jobs known).  They
+refuse -- one line, before any job, nothing under ``results/`` created or changed -- a run that
 
 * is estimated to take longer than :data:`~analysis.pipeline.cost.LONG_RUN_SECONDS` without the
   opt-in ``--config allow_long=True``;

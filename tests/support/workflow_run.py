@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import os
 import subprocess
 import sys
@@ -40,3 +41,10 @@ def setup_workdir(path: Path, grid: dict = GRID, **numerics) -> Path:
     (path / "config.yaml").write_text(yaml.safe_dump(cfg))
     (path / "grid.yaml").write_text(yaml.safe_dump(grid))
     return path
+
+
+def tree_digest(root: Path) -> dict:
+    """sha256 of every file under ``root`` by relative path: compare before and after to show
+    that nothing was written, changed or removed."""
+    return {str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(root.rglob("*")) if p.is_file()}

@@ -13,7 +13,6 @@ through a real ``snakemake -n`` (the wiring of those two calls).
 from __future__ import annotations
 
 import copy
-import hashlib
 import subprocess
 from pathlib import Path
 
@@ -22,7 +21,7 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from snakemake.exceptions import WorkflowError
-from workflow_run import snakemake_command, snakemake_env
+from workflow_run import snakemake_command, snakemake_env, tree_digest
 
 from analysis.pipeline.plan import build_plan, check_config_files
 
@@ -94,16 +93,11 @@ def edited_text(draw, base: dict):
     return "".join(lines), what + [tail]
 
 
-def _digest(folder: Path) -> dict:
-    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.iterdir())
-            if p.is_file()}
-
-
 def parse_like_snakemake(config_text: str, grid_text: str, folder: Path):
     """The workflow's parse-time pass on these two files: the plan, or the refusal."""
     (folder / "config.yaml").write_text(config_text)
     (folder / "grid.yaml").write_text(grid_text)
-    before = _digest(folder)
+    before = tree_digest(folder)
     try:
         check_config_files([folder / "config.yaml"])
         config = yaml.safe_load(config_text)  # Snakemake's loader, once the file passed the check
@@ -112,7 +106,7 @@ def parse_like_snakemake(config_text: str, grid_text: str, folder: Path):
     except WorkflowError as exc:
         return None, str(exc)
     finally:
-        assert _digest(folder) == before  # nothing written, nothing removed
+        assert tree_digest(folder) == before  # nothing written, nothing removed
 
 
 @st.composite
@@ -160,7 +154,7 @@ def test_a_broken_config_file_stops_snakemake_in_one_line(tmp_path, edit, words)
     (tmp_path / "config").mkdir()
     (tmp_path / "config" / "config.yaml").write_text(edit(text))
     (tmp_path / "config" / "grid.yaml").write_text((ROOT / "config" / "grid.yaml").read_text())
-    before = _digest(tmp_path / "config")
+    before = tree_digest(tmp_path / "config")
     cmd = [a for a in snakemake_command(tmp_path, "-n", "regimes") if a != "--configfile"][:-1]
     res = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=snakemake_env())
     assert res.returncode != 0
@@ -168,4 +162,4 @@ def test_a_broken_config_file_stops_snakemake_in_one_line(tmp_path, edit, words)
     assert len(lines) == 1 and words in lines[0], res.stderr[-2000:]
     assert "config/config.yaml" in lines[0]
     assert not (tmp_path / "results").exists()
-    assert _digest(tmp_path / "config") == before
+    assert tree_digest(tmp_path / "config") == before

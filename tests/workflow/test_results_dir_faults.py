@@ -6,7 +6,6 @@ neither a partial record nor a temporary file."""
 from __future__ import annotations
 
 import errno
-import hashlib
 import subprocess
 from contextlib import contextmanager
 from pathlib import Path
@@ -14,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from workflow_run import GRID, setup_workdir, snakemake
+from workflow_run import GRID, setup_workdir, snakemake, tree_digest
 
 from analysis.pipeline.store import PointStore
 
@@ -35,11 +34,6 @@ def mounted(*args: str, target: Path):
         yield target
     finally:
         subprocess.run(["umount", "-l", str(target)], check=False)
-
-
-def _tree_digest(root: Path) -> dict:
-    return {str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(root.rglob("*")) if p.is_file()}
 
 
 def _one_line(res: subprocess.CompletedProcess, start: str) -> str:
@@ -63,13 +57,13 @@ def test_read_only_results_stop_before_any_job_and_keep_what_is_there(tmp_path, 
         grid = yaml.safe_load(yaml.safe_dump(GRID))
         grid["grids"]["tiny"]["axes"]["f0_rel"] = [0.5, 1.5, 3.0]
         (work / "grid.yaml").write_text(yaml.safe_dump(grid))
-    before = _tree_digest(results)
+    before = tree_digest(results)
     with mounted("--bind", str(results), target=results):
         _mount("-o", "remount,bind,ro", str(results))
         res = snakemake(work, "regimes")
         assert words in _one_line(res, start)
         assert "Select jobs to execute" not in res.stdout + res.stderr  # no job was started
-        assert _tree_digest(results) == before
+        assert tree_digest(results) == before
 
 
 def test_a_full_disk_stops_the_run_in_one_line_before_any_job(tmp_path):
@@ -79,7 +73,7 @@ def test_a_full_disk_stops_the_run_in_one_line_before_any_job(tmp_path):
         res = snakemake(work, "regimes")
         line = _one_line(res, "cannot run:")
         assert "free, the new results need about" in line
-        assert _tree_digest(work / "results") == {}
+        assert tree_digest(work / "results") == {}
 
 
 def test_a_store_write_that_fills_the_disk_leaves_no_partial_record(tmp_path):
@@ -88,9 +82,9 @@ def test_a_store_write_that_fills_the_disk_leaves_no_partial_record(tmp_path):
     with mounted("-t", "tmpfs", "-o", "size=256k", "tmpfs", target=disk):
         store = PointStore(disk, "simulate")
         store.save("aa01", {"x": np.arange(1000.0), "label": "kept"})
-        before = _tree_digest(disk)
+        before = tree_digest(disk)
         with pytest.raises(OSError) as err:
             store.save("aa02", {"x": np.random.default_rng(0).random(100_000)})  # 800 kB
         assert err.value.errno == errno.ENOSPC
-        assert _tree_digest(disk) == before  # no partial record, no temporary file
+        assert tree_digest(disk) == before  # no partial record, no temporary file
         assert store.find("aa02") is None and store.load("aa01")["label"] == "kept"
