@@ -13,6 +13,9 @@ check_config_files(workflow.overwrite_configfiles or ["config/config.yaml"])
 configfile: "config/config.yaml"
 
 
+report: "workflow/report/workflow.rst"
+
+
 wildcard_constraints:
     grid=r"[A-Za-z0-9_-]+",  # grid names (workflow/schemas/grid.schema.yaml)
     chunk=r"[0-9]{3}",
@@ -22,6 +25,7 @@ wildcard_constraints:
 include: "workflow/rules/common.smk"
 include: "workflow/rules/modes.smk"
 include: "workflow/rules/regimes.smk"
+include: "workflow/rules/paper.smk"
 
 
 rule all:

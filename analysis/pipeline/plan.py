@@ -31,7 +31,7 @@ from analysis.pipeline.validation import (
 __all__ = ["Plan", "RUN_ONLY_KEYS", "build_plan", "check_config_files"]
 
 #: config keys that steer a run but not its results: left out of the tables' config and hash
-RUN_ONLY_KEYS = ("grid_file", "allow_long")
+RUN_ONLY_KEYS = ("grid_file", "paper_file", "allow_long")
 
 
 @dataclass(frozen=True)

@@ -42,14 +42,16 @@ class Case:
     ignore_metadata: tuple[bytes, ...] = ()  # Parquet metadata keys allowed to differ
 
     def __str__(self) -> str:
-        return self.target
+        return Path(self.target).stem
 
 
 CASES = [
     Case("modes", ("results/modes/*/modes.parquet",
                    "results/modes/*/characteristic_function.png",
                    "results/modes/*/mode_shapes.png")),
-    Case("regimes", ("results/regimes/*.parquet", "results/regimes/*/regimes.png"),
+    # the regime table (its chain: compile, simulate, lyapunov, classify, table; the figure
+    # rules are plain local jobs, and each level costs a SLURM status-poll round of ~30 s)
+    Case("results/regimes/tiny.parquet", ("results/regimes/*.parquet",),
          overrides={"grid_file": str(ROOT / "tests" / "workflow" / "data" / "grid_tiny.yaml"),
                     "numerics": {"n_transient": 4, "n_record": 128, "chunk_size": 1}}),
 ]

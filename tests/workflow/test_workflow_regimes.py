@@ -27,7 +27,7 @@ def first_run(tmp_path_factory):
 
 
 def test_dry_run_of_every_target():
-    for target in ("regimes", "modes", "all"):
+    for target in ("regimes", "modes", "paper", "all"):
         res = subprocess.run([sys.executable, "-m", "snakemake", "-n", target], cwd=ROOT, capture_output=True,
                              text=True, timeout=300)
         assert res.returncode == 0, (target, res.stderr[-2000:])

@@ -3,6 +3,10 @@ from pathlib import Path
 
 from snakemake.logging import logger
 
+from analysis.paper.config import build_paper_plan
+from analysis.paper.drawing import FIGURES as PAPER_FIGURES
+from analysis.paper.runs import RUN_ITEMS as PAPER_RUN_ITEMS
+from analysis.paper.tables import paper_config_hash
 from analysis.pipeline.cost import estimate_run
 from analysis.pipeline.plan import build_plan
 from analysis.pipeline.preflight import check_results_dir, check_run_length
@@ -23,6 +27,10 @@ TABLE_CONFIG = PLAN.table_config
 SIMULATION_METHODS = PLAN.simulation_methods
 #: the content-addressed per-point store (analysis.pipeline.store)
 STORE_ROOT = "results/store"
+#: the paper target (config/paper.yaml, or --config paper_file=...), checked with the rest
+PAPER = build_paper_plan(config, config.get("paper_file", "config/paper.yaml"),
+                         Path(workflow.basedir) / "workflow" / "schemas")
+PAPER_HASH = paper_config_hash(TABLE_CONFIG, PAPER.paper)
 
 
 if workflow.is_main_process:  # not in the per-job processes of a cluster executor
@@ -71,3 +79,24 @@ def grid_mode_files(wildcards) -> list[str]:
 def mode_key() -> str:
     """Cache key of the default model geometry with config['modes']['n_modes'] modes."""
     return model_cache_key(config["model"], config["modes"]["n_modes"])
+
+
+#: paper items whose runs need the smallest chaotic mu_s / mu_k (analysis.paper.runs)
+PAPER_NEEDS_CHAOS_RATIO = ("fig9", "fig10", "fig11")
+
+
+def paper_chaos_input(wildcards) -> list[str]:
+    if wildcards.item in PAPER_NEEDS_CHAOS_RATIO:
+        return ["results/paper/chaos_ratio/measured.parquet"]
+    return []
+
+
+def paper_section(wildcards) -> dict:
+    """The parts of the paper config one item's runs read (a change elsewhere reruns nothing)."""
+    keys = ["mapping", "figures"] + ([wildcards.item] if wildcards.item in PAPER.paper else [])
+    return {k: PAPER.paper[k] for k in keys}
+
+
+def paper_table_input(item: str) -> list[str]:
+    """The measured table a paper item's figures are drawn from (none for modes and fig12)."""
+    return [f"results/paper/{item}/measured.parquet"] if item in PAPER_RUN_ITEMS else []

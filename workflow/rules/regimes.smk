@@ -95,8 +95,18 @@ rule regime_figures:
     input:
         table="results/regimes/{grid}.parquet",
     output:
-        regimes="results/regimes/{grid}/regimes.png",
-        lle="results/regimes/{grid}/lle.png",
+        regimes=report(
+            "results/regimes/{grid}/regimes.png",
+            caption="../report/regimes.rst",
+            category="Regime maps",
+            subcategory="{grid}",
+        ),
+        lle=report(
+            "results/regimes/{grid}/lle.png",
+            caption="../report/lle.rst",
+            category="Regime maps",
+            subcategory="{grid}",
+        ),
     params:
         grid=lambda wc: GRIDS["grids"][wc.grid],
         numerics=RESULT_NUMERICS,
@@ -114,7 +124,12 @@ rule portraits:
         table="results/regimes/{grid}.parquet",
         modes=grid_mode_files,
     output:
-        figure="results/regimes/{grid}/portraits.png",
+        figure=report(
+            "results/regimes/{grid}/portraits.png",
+            caption="../report/portraits.rst",
+            category="Regime maps",
+            subcategory="{grid}",
+        ),
     params:
         grid=lambda wc: GRIDS["grids"][wc.grid],
         numerics=RESULT_NUMERICS,

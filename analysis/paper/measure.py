@@ -1,0 +1,146 @@
+"""Run a paper item's simulations (:mod:`analysis.paper.runs`) and collect one table row per run.
+
+Classified runs go through the regime pipeline's own stages and store
+(:mod:`analysis.pipeline.stages`): the same reference run, Lyapunov estimates and classifier as
+a regime map, so a paper verdict and a map cell at the same parameters agree by construction.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import asdict
+
+import numpy as np
+import pandas as pd
+
+from analysis.paper.runs import PaperRun
+from analysis.pipeline.config import Numerics, as_numerics
+from analysis.pipeline.grid import point_id
+from analysis.pipeline.stages import (
+    classify_points,
+    integrator,
+    lle_resolution,
+    lyapunov_points,
+    poincare_array,
+    simulate_points,
+)
+
+__all__ = ["measure_runs", "dense_history"]
+
+log = logging.getLogger("paper")
+
+#: columns copied from the stages' tables to a classified run's row
+_STAGE_COLUMNS = ("label", "period", "reason", "lle_stefanski", "lle_benettin", "omega", "Omega", "f0",
+                  "f_cr", "diverged", "slipped", "t_first_slip", "stick_fraction", "poincare_tip")
+
+
+def dense_history(params: dict, numerics: Numerics, n_transient: int, n_record: int,
+                  samples_per_period: int, n_show: int | None = None, start=None) -> dict:
+    """Dense tip history of one point: ``t``, ``w``, ``u1``, ``u2`` (tip radial and
+    circumferential displacements of both layers, units R) and their velocities (central
+    differences of the dense samples), over the last ``n_show`` periods (all when None).  Same
+    integrator and step as the point's reference run.  ``start``: a state to start from (a
+    reference run's ``final_state``: the forcing is periodic and runs end on period
+    boundaries, so the history continues that run exactly)."""
+    from beamsim.simulate import simulate
+
+    if start is not None:
+        from beamsim.point import prepare_point
+
+        x = np.asarray(start, dtype=float)
+        pp = prepare_point(**params)
+        n, nq = pp.model.n, pp.model.n_quad
+        params = dict(params, q0=x[:n], v0=x[n:2 * n], z0=x[2 * n:2 * n + nq], mode0=x[2 * n + nq:])
+
+    spp = numerics.steps_per_period
+    if spp is not None:
+        spp = max(samples_per_period, int(np.ceil(spp / samples_per_period) * samples_per_period))
+    r = simulate(n_transient=n_transient, n_record=n_record, method=integrator(numerics.method, params),
+                 steps_per_period=spp, step_factor=numerics.step_factor,
+                 dense_per_period=samples_per_period, **params)
+    t = r.dense_t
+    first = 0 if n_show is None else max(0, len(t) - n_show * samples_per_period - 1)
+    keep = slice(first, len(t))
+    out = {"t": t[keep].tolist(), "period_T": 2.0 * np.pi / r.omega}
+    for j, name in enumerate(("w", "u1", "u2")):
+        x = r.dense[:, j]
+        out[name] = x[keep].tolist()
+        out[name + "_dot"] = np.gradient(x, t)[keep].tolist()
+    return out
+
+
+def _classified(runs: list[PaperRun], nm: Numerics, store_root: str, threads: int) -> list[dict]:
+    points, seen = [], set()
+    ids = [point_id(r.params, nm) for r in runs]
+    for pid, r in zip(ids, runs):
+        if pid not in seen:
+            seen.add(pid)
+            points.append({"point_id": pid, "params": r.params})
+    # one batch per integrator and state size, as the regime chunks do
+    sim = simulate_points(points, nm, store_root, threads=threads)
+    lyap = lyapunov_points(points, sim, nm, store_root, threads=threads)
+    lab = classify_points(sim, lyap, lle_threshold=lle_resolution(nm))
+    table = sim.merge(lyap, on="point_id").merge(lab, on="point_id").set_index("point_id")
+    rows = []
+    for pid in ids:
+        t = table.loc[pid]
+        row = {"point_id": pid} | {c: t[c] for c in _STAGE_COLUMNS}
+        T = 2.0 * np.pi / float(t["omega"])
+        row["lle_T"] = float(t["lle_stefanski"]) * T
+        row["lle_benettin_T"] = float(t["lle_benettin"]) * T
+        row["period"] = None if pd.isna(t["period"]) else int(t["period"])
+        row["final_state"] = t["final_state"]
+        rows.append(row)
+    return rows
+
+
+def measure_runs(runs: list[PaperRun], numerics: Numerics | dict, store_root: str, *, threads: int = 1,
+                 samples_per_period: int = 64, n_show: int = 30) -> pd.DataFrame:
+    """One row per run, in the runs' order: the run's description (item, case, law, kind,
+    f0_paper, anchor, ratio, its parameters as JSON) and what it measured.
+
+    classified : label, period, reason, ``lle_T`` (Stefanski ``lambda_1`` per forcing period, the
+        classifier's input), ``lle_benettin_T``, slip indicators, Poincare tip samples; with
+        ``draw``, the dense history of ``n_show`` periods continuing the reference run.
+    history : the dense history from rest over ``extra['n_periods']`` periods.
+    transient : Poincare tip samples from rest over ``extra['n_periods']`` periods.
+    """
+    from analysis.pipeline.grid import canonical_json
+    from beamsim.simulate import simulate
+
+    nm = as_numerics(numerics)
+    rows = []
+    for r in runs:
+        d = asdict(r)
+        params = d.pop("params")
+        extra = d.pop("extra")
+        rows.append(d | {"params_json": canonical_json(params)} | extra)
+    cls = [i for i, r in enumerate(runs) if r.kind == "classified"]
+    if cls:
+        for i, rec in zip(cls, _classified([runs[i] for i in cls], nm, store_root, threads)):
+            rows[i].update(rec)
+    for i, r in enumerate(runs):
+        if r.kind == "classified" and r.draw:
+            if not rows[i]["diverged"]:
+                rows[i].update(dense_history(r.params, nm, 0, n_show, samples_per_period,
+                                             start=rows[i]["final_state"]))
+        elif r.kind == "history":
+            rows[i].update(dense_history(r.params, nm, 0, r.extra["n_periods"], samples_per_period))
+        elif r.kind == "transient":
+            res = simulate(n_transient=0, n_record=r.extra["n_periods"],
+                           method=integrator(nm.method, r.params), steps_per_period=nm.steps_per_period,
+                           step_factor=nm.step_factor, **r.params)
+            rows[i].update(poincare_tip=res.poincare_tip.tolist(), omega=res.omega, f0=res.f0, f_cr=res.f_cr,
+                           slipped=res.slipped)
+        log.info("paper %s: run %d / %d done (%s, %s, %s)", r.item, i + 1, len(runs), r.kind, r.case, r.law)
+    for row in rows:
+        row.pop("final_state", None)
+    table = pd.DataFrame(rows)
+    if "period" in table:
+        table["period"] = table["period"].astype("Int64")
+    return table
+
+
+def poincare_tip(row: pd.Series) -> np.ndarray:
+    """A row's Poincare tip samples as an array (n, 4): w, u1, u2, load point."""
+    return poincare_array(row["poincare_tip"])
