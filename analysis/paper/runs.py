@@ -122,8 +122,9 @@ def item_runs(item: str, paper: dict, model: dict, chaos_ratio: float | None = N
     anchors = [float(a) for a in mp["f0_anchors"]]
     mid = _middle(anchors)
     Omega = float(mp["Omega"])
-    base = dict(model, Omega=Omega, law="stick-slip")
-    base.pop("f0", None)
+    # the items set the load and the frequency themselves
+    base = {k: v for k, v in model.items() if k not in ("f0", "f0_rel", "omega", "lam_f", "Omega")}
+    base.update(Omega=Omega, law="stick-slip")
     paper_law = _with_ratio(base, 1.0)
     if item in ("fig9", "fig10", "fig11") and chaos_ratio is None:
         raise ValueError(f"item {item} needs the chaos_ratio item's smallest chaotic ratio")

@@ -16,7 +16,8 @@ from analysis.paper.runs import ITEMS, RUN_ITEMS
 from analysis.paper.tables import read_paper_metadata
 from analysis.paper.verdicts import VERDICTS
 
-pytestmark = pytest.mark.slow
+# slow; one run shared by the module: keep its tests on one xdist worker
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("paper")]
 
 
 @pytest.fixture(scope="module")

@@ -3,7 +3,7 @@ from pathlib import Path
 
 from snakemake.logging import logger
 
-from analysis.paper.config import build_paper_plan
+from analysis.paper.config import build_paper_plan, paper_file
 from analysis.paper.drawing import FIGURES as PAPER_FIGURES
 from analysis.paper.runs import RUN_ITEMS as PAPER_RUN_ITEMS
 from analysis.paper.tables import paper_config_hash
@@ -27,8 +27,9 @@ TABLE_CONFIG = PLAN.table_config
 SIMULATION_METHODS = PLAN.simulation_methods
 #: the content-addressed per-point store (analysis.pipeline.store)
 STORE_ROOT = "results/store"
-#: the paper target (config/paper.yaml, or --config paper_file=...), checked with the rest
-PAPER = build_paper_plan(config, config.get("paper_file", "config/paper.yaml"),
+#: the paper target (--config paper_file=..., else config/paper.yaml of the working directory,
+#: else the workflow's own), checked with the rest
+PAPER = build_paper_plan(config, paper_file(config, Path(workflow.basedir)),
                          Path(workflow.basedir) / "workflow" / "schemas")
 PAPER_HASH = paper_config_hash(TABLE_CONFIG, PAPER.paper)
 
