@@ -22,7 +22,7 @@ run: $(STAMP)
 
 # Whole test suite.
 test: $(STAMP)
-	$(BIN)/python -m pytest -n 2 --dist loadgroup --durations=15
+	$(BIN)/python -m pytest -n 2 --dist loadfile --durations=15
 
 clean-venv:
 	rm -rf $(VENV)

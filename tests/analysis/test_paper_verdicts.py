@@ -5,6 +5,7 @@ property itself is asserted on a real run."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -124,3 +125,20 @@ def test_limit_cycle_claims_skip_unsettled_runs_and_trends_need_the_numbers():
     assert V._limit_cycle_verdict(qp) == V.QUALITATIVE
     assert V._limit_cycle_verdict(rows.assign(label=["chaotic", "unsettled", "periodic"])) == V.FALSE
     assert V._limit_cycle_verdict(rows.assign(label="unsettled")) == V.DATA_MISSING
+
+
+@pytest.mark.parametrize("case, law", [("f0=5", PAPER_LAW), ("(c, d)", "full-slip")],
+                         ids=["fig10-f0-5-stick-slip", "fig9d-full-slip"])
+def test_reproduced_limit_cycles(case, law, tmp_path):
+    """Figs 10d-e and 9d reproduce: the paper's f0 = 5 with its law, and full-slip at its f0 = 1,
+    settle on period 1 (the shipped mapping at its middle anchor, one mode for speed)."""
+    paper = json.loads(json.dumps(PAPER))
+    paper["mapping"]["f0_anchors"] = [0.75]
+    model = dict(MODEL, n_modes=1)
+    item = "fig10" if case == "f0=5" else "fig9"
+    runs = [r for r in item_runs(item, paper, model, chaos_ratio=1.0)
+            if r.case == case and r.law == law and r.kind == "classified"]
+    m = measure_runs([dataclasses.replace(r, draw=False) for r in runs],
+                     Numerics(n_transient=100, n_record=128), str(tmp_path))
+    assert list(m["label"]) == ["periodic"] * len(runs) and set(m["period"]) == {1}
+    assert V._limit_cycle_verdict(m) == V.REPRODUCED

@@ -65,7 +65,6 @@ def test_results_dir_check_wants_room_for_twice_the_new_records(tmp_path):
         check_results_dir(tmp_path, need_bytes=1e18)
 
 
-@pytest.mark.xdist_group("regimes")
 def test_a_ten_thousand_point_grid_is_planned_by_a_dry_run_and_refused_without_opt_in(tmp_path):
     grid = {"grids": {"huge": {"axes": {"Omega": {"range": [1.25, 8.0], "num": 100},
                                         "f0_rel": {"range": [0.8, 3.0], "num": 100}},

@@ -15,8 +15,6 @@ import pandas as pd
 import pytest
 from workflow_run import setup_workdir, snakemake, snakemake_command, snakemake_env
 
-pytestmark = pytest.mark.xdist_group("interrupted")
-
 #: long enough (three modes, 30 + 128 periods) that a chunk job computes for a second or two
 NUMERICS = {"n_transient": 30}
 TABLE = Path("results/regimes/tiny.parquet")

@@ -18,8 +18,6 @@ from workflow_run import GRID, setup_workdir, snakemake, tree_digest
 
 from analysis.pipeline.store import PointStore
 
-pytestmark = pytest.mark.xdist_group("results_faults")
-
 
 def _mount(*args: str) -> None:
     subprocess.run(["mount", *args], check=True, capture_output=True)

@@ -28,8 +28,8 @@ ROOT = Path(__file__).resolve().parents[2]
 VENV_BIN = str(Path(sys.executable).parent)
 RUN_TIMEOUT = 300  # seconds for one snakemake run (the SLURM one takes ~30 s here)
 
-# slow; and one local cluster per session: keep every SLURM test on one xdist worker
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("slurm")]
+# slow; one local cluster for the module (make test hands whole files to a worker: --dist loadfile)
+pytestmark = pytest.mark.slow
 
 
 @dataclass(frozen=True)

@@ -16,8 +16,8 @@ from analysis.paper.runs import ITEMS, RUN_ITEMS
 from analysis.paper.tables import read_paper_metadata
 from analysis.paper.verdicts import VERDICTS
 
-# slow; one run shared by the module: keep its tests on one xdist worker
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("paper")]
+# slow; one run shared by the module (make test hands whole files to a worker: --dist loadfile)
+pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")

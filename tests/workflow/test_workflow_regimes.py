@@ -15,8 +15,8 @@ from analysis.pipeline.grid import RESULTS_VERSION
 from analysis.pipeline.table import read_regime_metadata
 from analysis.regimes import CLASSIFIER_VERSION
 
-# the tests share one built working directory: keep them on one xdist worker
-pytestmark = pytest.mark.xdist_group("regimes")
+# the tests share one built working directory (module fixture; make test hands whole files to a
+# worker: --dist loadfile)
 
 @pytest.fixture(scope="module")
 def first_run(tmp_path_factory):
