@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.figures import paper as fig
+from analysis.paper.measure import drawn
 from analysis.pipeline.stages import poincare_array
 
 __all__ = ["FIGURES", "draw_item"]
@@ -73,8 +74,7 @@ def draw_item(item: str, measured: pd.DataFrame | None, outputs: list[str], *, d
         fig.plot_tip_histories(cases, outputs[0], dpi=dpi)
     elif item in ("fig9", "fig13"):
         rows = []
-        drawn = measured[measured["draw"]]
-        for case, df in drawn.groupby("case", sort=False):
+        for case, df in drawn(measured).groupby("case", sort=False):
             r0 = df.iloc[0]
             title = f"{item} {case}: paper f0 = {r0['f0_paper']:g}, f0_rel = {_f0_rel(r0):.3g}"
             rows.append({"title": title, "panels": [_curve(r, _law_title(r)) for _, r in df.iterrows()]})
@@ -96,8 +96,8 @@ def draw_item(item: str, measured: pd.DataFrame | None, outputs: list[str], *, d
                                      for _, r in tr.iterrows()], outputs[2], dpi=dpi)
     elif item == "fig11":
         cases = []
-        for law, df in measured.groupby("law", sort=False):
-            r = df.loc[df["lle_T"].idxmax()]  # the most unstable of the mapped loads
+        for law, df in drawn(measured).groupby("law", sort=False):
+            r = df.loc[df["lle_T"].fillna(-np.inf).idxmax()]  # the most unstable of the mapped loads
             cases.append(_curve(r, f"{_law_title(r)}, f0_rel {_f0_rel(r):.3g}"))
         fig.plot_layer_phase_planes(cases, outputs[0], dpi=dpi)
     elif item == "fig12":

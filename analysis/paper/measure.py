@@ -25,7 +25,7 @@ from analysis.pipeline.stages import (
     simulate_points,
 )
 
-__all__ = ["measure_runs", "dense_history"]
+__all__ = ["measure_runs", "dense_history", "drawn"]
 
 log = logging.getLogger("paper")
 
@@ -139,6 +139,13 @@ def measure_runs(runs: list[PaperRun], numerics: Numerics | dict, store_root: st
     if "period" in table:
         table["period"] = table["period"].astype("Int64")
     return table
+
+
+def drawn(table: pd.DataFrame) -> pd.DataFrame:
+    """The rows that hold a dense history (drawn runs that did not diverge)."""
+    if "t" not in table:
+        return table.iloc[:0]
+    return table[table["draw"].astype(bool) & table["t"].notna()]
 
 
 def poincare_tip(row: pd.Series) -> np.ndarray:

@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from analysis.paper.measure import drawn
 from analysis.paper.runs import PAPER_LAW
 from analysis.pipeline.stages import poincare_array
 
@@ -185,13 +186,21 @@ def fig9_verdicts(measured: pd.DataFrame, resolution: float) -> list[dict]:
     out = []
     ab = df[df["case"] == "(a, b)"]
     ss, fs = ab[ab["law"] == PAPER_LAW], ab[ab["law"] == "full-slip"]
-    regular = set(ss["label"]) | set(fs["label"]) <= {"periodic", "quasi-periodic"}
-    drawn_ss, drawn_fs = ss[ss["draw"]], fs[fs["draw"]]
-    both = len(drawn_ss) and len(drawn_fs)
-    diff = history_difference(drawn_ss.iloc[0], drawn_fs.iloc[0]) if both else np.nan
-    text = (f"stick-slip: {labels_text(ss)}; full-slip: {labels_text(fs)}; tip histories differ by "
-            f"{100 * diff:.1f} % of the full-slip amplitude (f0_rel {drawn_fs['params_f0_rel'].iloc[0]:.3g})")
-    verdict = QUALITATIVE if regular and diff > SHAPE_TOLERANCE else FALSE
+    labels = set(ss["label"]) | set(fs["label"])
+    drawn_ss, drawn_fs = drawn(ss), drawn(fs)
+    text = f"stick-slip: {labels_text(ss)}; full-slip: {labels_text(fs)}"
+    if len(drawn_ss) and len(drawn_fs):
+        diff = history_difference(drawn_ss.iloc[0], drawn_fs.iloc[0])
+        text += (f"; tip histories differ by {100 * diff:.1f} % of the full-slip amplitude "
+                 f"(f0_rel {drawn_fs['params_f0_rel'].iloc[0]:.3g})")
+    else:
+        diff = np.nan
+    if "chaotic" in labels:
+        verdict = FALSE
+    elif not np.isfinite(diff) or not labels - set(NON_RESULTS):
+        verdict = DATA_MISSING
+    else:  # "completely different" limit cycles: a difference above the tolerance
+        verdict = QUALITATIVE if diff > SHAPE_TOLERANCE else FALSE
     out.append(_row("fig9", "Fig 9a-b: stick-slip and full-slip both settle on limit cycles, of different "
                     "shape", text, verdict))
     cd = df[df["case"] == "(c, d)"]
@@ -293,7 +302,7 @@ def fig13_verdicts(measured: pd.DataFrame) -> list[dict]:
     out, diffs = [], []
     for case, rows in df.groupby("case", sort=False):
         dry, st = rows[rows["law"] != "Stribeck"], rows[rows["law"] == "Stribeck"]
-        d_dry, d_st = dry[dry["draw"]], st[st["draw"]]
+        d_dry, d_st = drawn(dry), drawn(st)
         diff = history_difference(d_st.iloc[0], d_dry.iloc[0]) if len(d_dry) and len(d_st) else np.nan
         diffs.append((float(rows["f0_paper"].iloc[0]), diff))
         text = f"dry: {labels_text(dry)}; Stribeck: {labels_text(st)}; histories differ by {100 * diff:.1f} %"
