@@ -70,7 +70,7 @@ def draw_item(item: str, measured: pd.DataFrame | None, outputs: list[str], *, d
             curves = [dict(_curve(r, ""), label=f"N = {int(r['n_modes'])}")
                       for _, r in df.sort_values("n_modes").iterrows()]
             r0 = df.iloc[0]
-            cases.append({"title": f"Fig 8, {case}, p* = {r0['p']:g}, from rest", "curves": curves})
+            cases.append({"title": f"Fig 8, {case}, f0_rel = {_f0_rel(r0):g}, from rest", "curves": curves})
         fig.plot_tip_histories(cases, outputs[0], dpi=dpi)
     elif item in ("fig9", "fig13"):
         rows = []

@@ -21,7 +21,6 @@ from analysis.pipeline.stages import (
     integrator,
     lle_resolution,
     lyapunov_points,
-    poincare_array,
     simulate_points,
 )
 
@@ -39,9 +38,10 @@ def dense_history(params: dict, numerics: Numerics, n_transient: int, n_record: 
     """Dense tip history of one point: ``t``, ``w``, ``u1``, ``u2`` (tip radial and
     circumferential displacements of both layers, units R) and their velocities (central
     differences of the dense samples), over the last ``n_show`` periods (all when None).  Same
-    integrator and step as the point's reference run.  ``start``: a state to start from (a
-    reference run's ``final_state``: the forcing is periodic and runs end on period
-    boundaries, so the history continues that run exactly)."""
+    integrator as the point's reference run (a fixed step count is rounded up to a multiple of
+    ``samples_per_period``).  ``start``: a state to start from (a reference run's
+    ``final_state``: the forcing is periodic and runs end on period boundaries, so the history
+    continues that run, up to the integrator's switch-location tolerance)."""
     from beamsim.simulate import simulate
 
     if start is not None:
@@ -148,6 +148,3 @@ def drawn(table: pd.DataFrame) -> pd.DataFrame:
     return table[table["draw"].astype(bool) & table["t"].notna()]
 
 
-def poincare_tip(row: pd.Series) -> np.ndarray:
-    """A row's Poincare tip samples as an array (n, 4): w, u1, u2, load point."""
-    return poincare_array(row["poincare_tip"])

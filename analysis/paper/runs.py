@@ -25,7 +25,8 @@ import pandas as pd
 
 from analysis.pipeline.grid import axis_values
 
-__all__ = ["PaperRun", "ITEMS", "RUN_ITEMS", "PAPER_LAW", "item_runs", "smallest_chaotic_ratio",
+__all__ = ["PaperRun", "ITEMS", "RUN_ITEMS", "NEEDS_CHAOS_RATIO", "PAPER_LAW", "item_runs",
+           "smallest_chaotic_ratio",
            "model_defaults", "f0_rel_of", "paper_modes", "stribeck_constants", "TABLE1_GEOMETRY"]
 
 #: Table 1's arch: alpha = h / R = 0.01, beta = 0.4 rad, clamped-free
@@ -35,6 +36,8 @@ TABLE1_GEOMETRY = {"alpha": 0.01, "beta": 0.4, "bc": "clamped-free"}
 ITEMS = ("modes", "fig8", "fig9", "fig10", "fig11", "fig12", "fig13")
 #: items that need simulations, in the order they run (fig9-11 use chaos_ratio's result)
 RUN_ITEMS = ("chaos_ratio", "fig8", "fig9", "fig10", "fig11", "fig13")
+#: items whose runs use the smallest chaotic mu_s / mu_k of item chaos_ratio
+NEEDS_CHAOS_RATIO = ("fig9", "fig10", "fig11")
 #: legend name of the paper's own friction law
 PAPER_LAW = "mu_s = mu_k (paper)"
 
@@ -51,6 +54,8 @@ class PaperRun:
     draw : keep the dense history of the attractor for a figure.
     f0_paper, anchor, ratio : the paper's load, the mapping anchor and ``mu_s / mu_k`` (NaN
         where they do not apply).
+    extra : what a run's kind needs besides (``n_periods`` of history and transient runs; the
+        mode count, ``lam_f`` and ``p`` of fig 8), copied into its table row.
     """
 
     item: str
@@ -106,10 +111,11 @@ def paper_modes(n_modes: int = 4):
 
 
 def stribeck_constants(paper: dict, model: dict) -> dict:
-    """The Stribeck law of fig 13 (eq 34): ``F_s = mu_s p`` of the paper's model, ``F_c =
-    F_c_ratio F_s``, ``v_s``, ``k_v``; ``eps`` = ``v_s / 100``, the tanh band used to draw it."""
+    """The Stribeck law of fig 13 (eq 34) beside the paper's dry law (``mu = mu_k`` of
+    ``model``): ``F_s = mu_k p``, ``F_c = F_c_ratio F_s``, ``v_s``, ``k_v``; ``eps`` =
+    ``v_s / 100``, the tanh band used to draw it."""
     st = paper["fig13"]["stribeck"]
-    F_s = float(f"{float(model['mu_s']) * float(model['p']):.12g}")
+    F_s = float(f"{float(model['mu_k']) * float(model['p']):.12g}")
     return {"F_s": F_s, "F_c": float(f"{st['F_c_ratio'] * F_s:.12g}"), "v_s": float(st["v_s"]),
             "k_v": float(st["k_v"]), "eps": float(st["v_s"]) / 100.0}
 
@@ -126,7 +132,7 @@ def item_runs(item: str, paper: dict, model: dict, chaos_ratio: float | None = N
     base = {k: v for k, v in model.items() if k not in ("f0", "f0_rel", "omega", "lam_f", "Omega")}
     base.update(Omega=Omega, law="stick-slip")
     paper_law = _with_ratio(base, 1.0)
-    if item in ("fig9", "fig10", "fig11") and chaos_ratio is None:
+    if item in NEEDS_CHAOS_RATIO and chaos_ratio is None:
         raise ValueError(f"item {item} needs the chaos_ratio item's smallest chaotic ratio")
     runs: list[PaperRun] = []
 
@@ -145,7 +151,7 @@ def item_runs(item: str, paper: dict, model: dict, chaos_ratio: float | None = N
                 params = dict(paper_law, n_modes=int(n), p=float(p), lam_f=float(lam),
                               f0_rel=float(f8["f0_rel"]))
                 params.pop("Omega")
-                runs.append(PaperRun(item, f"lambda={lam:g}", PAPER_LAW, "history", params,
+                runs.append(PaperRun(item, f"lambda={lam:g}, p*={p:g}", PAPER_LAW, "history", params,
                                      extra={"n_modes": int(n), "lam_f": float(lam), "p": float(p),
                                             "n_periods": int(f8["n_periods"])}))
     elif item == "fig9":
@@ -154,7 +160,7 @@ def item_runs(item: str, paper: dict, model: dict, chaos_ratio: float | None = N
             for a in anchors:
                 rel = f0_rel_of(f0, a)
                 classified(case, PAPER_LAW, dict(paper_law, f0_rel=rel), f0, a, 1.0, draw=a == mid)
-                if a == mid:  # the regularised law costs ~20x a stick-slip run (RK4, stiff band)
+                if a == mid:  # a regularised law is far dearer (RK4, stiff band; docs/paper-reproduction.md)
                     classified(case, "full-slip", dict(paper_law, law="full-slip", f0_rel=rel), f0, a,
                                draw=True)
                 if f0 == 1.0 and chaos_ratio != 1.0:

@@ -63,7 +63,9 @@ def test_chaos_claim_verdicts():
     found = V.fig11_verdicts(_chaos_rows(["chaotic"], [0.5]), resolution=0.2)[0]
     assert found["verdict"] == V.REPRODUCED
     above = V.fig11_verdicts(_chaos_rows(["quasi-periodic"], [0.3]), resolution=0.2)[0]
-    assert above["verdict"] == V.FALSE
+    assert above["verdict"] == V.QUALITATIVE  # a positive exponent the other indicators do not confirm
+    nothing = V.fig11_verdicts(_chaos_rows(["diverged"], [np.nan]), resolution=0.2)[0]
+    assert nothing["verdict"] == V.DATA_MISSING
 
 
 def test_settling_and_history_difference():
@@ -72,10 +74,28 @@ def test_settling_and_history_difference():
     slow = 1.0 + np.exp(-k / 20.0)
     assert V.settling_periods(fast) < V.settling_periods(slow)
     assert V.settling_periods(np.ones(10)) == 1  # settled from the first period on
+    assert V.settling_periods(np.array([0.0, 1.0, np.nan])) is None  # a diverged transient
     a = pd.Series({"w": np.sin(np.linspace(0, 6, 50))})
     b = pd.Series({"w": 1.1 * np.sin(np.linspace(0, 6, 50))})
     assert V.history_difference(a, a) == 0.0
     assert V.history_difference(a, b) == pytest.approx(0.1 / 2.2, rel=0.05)
+    assert np.isnan(V.history_difference(a, pd.Series({"w": np.full(50, np.nan)})))
+
+
+def test_fig8_verdict_follows_the_mode_count_difference():
+    t = np.linspace(0.0, 1.0, 200)
+    ref = np.sin(3 * t)
+
+    def table(err3):
+        rows = [{"case": "lambda=3.5", "n_modes": n, "w": ref + e * np.cos(9 * t), "u1": ref}
+                for n, e in ((1, 0.3), (3, err3), (7, 0.0))]
+        return pd.DataFrame(rows)
+
+    assert V.fig8_verdicts(table(0.01))[0]["verdict"] == V.REPRODUCED
+    assert V.fig8_verdicts(table(0.2))[0]["verdict"] == V.FALSE
+    diverged = table(0.01)
+    diverged.at[1, "w"] = np.full(200, np.nan)
+    assert V.fig8_verdicts(diverged)[0]["verdict"] == V.DATA_MISSING
 
 
 def test_fig12_verdict_checks_the_implemented_law_against_eq_34():
@@ -125,6 +145,7 @@ def test_limit_cycle_claims_skip_unsettled_runs_and_trends_need_the_numbers():
     assert V._limit_cycle_verdict(qp) == V.QUALITATIVE
     assert V._limit_cycle_verdict(rows.assign(label=["chaotic", "unsettled", "periodic"])) == V.FALSE
     assert V._limit_cycle_verdict(rows.assign(label="unsettled")) == V.DATA_MISSING
+    assert V._limit_cycle_verdict(rows.assign(label="quasi-periodic")) == V.FALSE  # no limit cycle anywhere
 
 
 @pytest.mark.parametrize("case, law", [("f0=5", PAPER_LAW), ("(c, d)", "full-slip")],

@@ -5,7 +5,9 @@ from snakemake.logging import logger
 
 from analysis.paper.config import build_paper_plan, paper_file
 from analysis.paper.drawing import FIGURES as PAPER_FIGURES
+from analysis.paper.runs import NEEDS_CHAOS_RATIO as PAPER_NEEDS_CHAOS_RATIO
 from analysis.paper.runs import RUN_ITEMS as PAPER_RUN_ITEMS
+from analysis.paper.runs import stribeck_constants
 from analysis.paper.tables import paper_config_hash
 from analysis.pipeline.cost import estimate_run
 from analysis.pipeline.plan import build_plan
@@ -32,6 +34,8 @@ STORE_ROOT = "results/store"
 PAPER = build_paper_plan(config, paper_file(config, Path(workflow.basedir)),
                          Path(workflow.basedir) / "workflow" / "schemas")
 PAPER_HASH = paper_config_hash(TABLE_CONFIG, PAPER.paper)
+#: the Stribeck law of figs 12-13 (analysis.paper.runs.stribeck_constants)
+PAPER_STRIBECK = stribeck_constants(PAPER.paper, PAPER.model)
 
 
 if workflow.is_main_process:  # not in the per-job processes of a cluster executor
@@ -82,9 +86,6 @@ def mode_key() -> str:
     return model_cache_key(config["model"], config["modes"]["n_modes"])
 
 
-#: paper items whose runs need the smallest chaotic mu_s / mu_k (analysis.paper.runs)
-PAPER_NEEDS_CHAOS_RATIO = ("fig9", "fig10", "fig11")
-
 
 def paper_chaos_input(wildcards) -> list[str]:
     if wildcards.item in PAPER_NEEDS_CHAOS_RATIO:
@@ -94,8 +95,13 @@ def paper_chaos_input(wildcards) -> list[str]:
 
 def paper_section(wildcards) -> dict:
     """The parts of the paper config one item's runs read (a change elsewhere reruns nothing)."""
-    keys = ["mapping", "figures"] + ([wildcards.item] if wildcards.item in PAPER.paper else [])
+    keys = ["mapping"] + ([wildcards.item] if wildcards.item in PAPER.paper else [])
     return {k: PAPER.paper[k] for k in keys}
+
+
+def paper_figure_settings(wildcards) -> dict:
+    """Dense-history settings for the items that draw attractors (none for chaos_ratio)."""
+    return {} if wildcards.item == "chaos_ratio" else PAPER.paper["figures"]
 
 
 def paper_table_input(item: str) -> list[str]:

@@ -11,8 +11,7 @@ rule paper_item:
         paper=paper_section,
         model=PAPER.model,
         numerics=PAPER.result_numerics,
-        figures=PAPER.paper["figures"],
-        config_hash=PAPER_HASH,
+        figures=paper_figure_settings,
         store=STORE_ROOT,
     threads: 2
     log:
@@ -44,8 +43,7 @@ for _item, _files in PAPER_FIGURES.items():
             },
         params:
             item=_item,
-            paper=PAPER.paper,
-            model=PAPER.model,
+            stribeck=PAPER_STRIBECK if _item == "fig12" else {},
             numerics=PAPER.result_numerics,
             dpi=config.get("figures", {}).get("dpi", 130),
         log:
@@ -70,7 +68,7 @@ rule paper_verdicts:
     params:
         run_items=PAPER_RUN_ITEMS,
         paper=PAPER.paper,
-        model=PAPER.model,
+        stribeck=PAPER_STRIBECK,
         numerics=PAPER.result_numerics,
         config_hash=PAPER_HASH,
     log:

@@ -7,7 +7,7 @@ sys.stderr = open(snakemake.log[0], "w")
 import pandas as pd
 
 from analysis.paper.drawing import draw_item
-from analysis.paper.runs import paper_modes, stribeck_constants
+from analysis.paper.runs import paper_modes
 from analysis.pipeline.stages import lle_resolution
 
 item = snakemake.params.item
@@ -15,4 +15,4 @@ measured = pd.read_parquet(snakemake.input.table[0]) if snakemake.input.table el
 draw_item(item, measured, list(snakemake.output), dpi=snakemake.params.dpi,
           resolution=lle_resolution(snakemake.params.numerics),
           modes=paper_modes() if item == "modes" else None,
-          stribeck=stribeck_constants(snakemake.params.paper, snakemake.params.model))
+          stribeck=snakemake.params.stribeck)

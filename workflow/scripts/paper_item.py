@@ -11,7 +11,7 @@ import pandas as pd
 
 from analysis.paper.measure import measure_runs
 from analysis.paper.runs import item_runs, smallest_chaotic_ratio
-from analysis.paper.tables import write_paper_table
+from analysis.paper.tables import paper_config_hash, write_paper_table
 
 logging.basicConfig(stream=sys.stderr, level=logging.INFO, format="%(asctime)s %(message)s")
 warnings.filterwarnings("ignore", module="nolds")  # nolds' lag heuristics on short series
@@ -21,9 +21,13 @@ if snakemake.input.chaos:
     ratio, found = smallest_chaotic_ratio(pd.read_parquet(snakemake.input.chaos[0]))
     logging.info("smallest mu_s / mu_k with chaos: %g (%s)", ratio, "found" if found else "none chaotic")
 runs = item_runs(item, snakemake.params.paper, snakemake.params.model, ratio)
-fig = snakemake.params.figures
+fig = dict(snakemake.params.figures)
+dense = {"samples_per_period": fig["samples_per_period"], "n_show": fig["n_show"]} if fig else {}
 table = measure_runs(runs, snakemake.params.numerics, snakemake.params.store, threads=snakemake.threads,
-                     samples_per_period=fig["samples_per_period"], n_show=fig["n_show"])
+                     **dense)
+# the hash of what this table depends on (a rule parameter would rerun every item on any edit)
+inputs = {"paper": snakemake.params.paper, "figures": fig}
 write_paper_table(table, snakemake.output.table, item=item, paper=snakemake.params.paper,
                   model=snakemake.params.model, numerics=snakemake.params.numerics,
-                  config_hash=snakemake.params.config_hash)
+                  config_hash=paper_config_hash({"model": snakemake.params.model,
+                                                 "numerics": snakemake.params.numerics}, inputs))
