@@ -19,12 +19,11 @@ __all__ = ["PaperPlan", "build_paper_plan", "paper_file"]
 @dataclass(frozen=True)
 class PaperPlan:
     """paper : the paper config (validated); model : the paper runs' model defaults (config's
-    model with the paper's overrides); numerics, result_numerics : the config's numerics with the
-    paper's overrides (all, and those that enter point ids)."""
+    model with the paper's overrides); result_numerics : the config's numerics with the paper's
+    overrides, resolved (what enters point ids)."""
 
     paper: dict
     model: dict
-    numerics: Numerics
     result_numerics: dict
 
 
@@ -71,5 +70,4 @@ def build_paper_plan(config: dict, paper_file: str, schemas: Path) -> PaperPlan:
         raise WorkflowError(f"invalid config: fig8.p has {len(f8['p'])} values, fig8.lam_f "
                             f"{len(f8['lam_f'])}: give one p per lambda [{paper_file}]")
     _check_runs(paper, merged["model"], paper_file)
-    nm = Numerics.from_dict(numerics)
-    return PaperPlan(paper, merged["model"], nm, nm.result_dict())
+    return PaperPlan(paper, merged["model"], Numerics.from_dict(numerics).result_dict())

@@ -3,8 +3,6 @@ the figure kinds themselves are in :mod:`analysis.figures.paper`."""
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pandas as pd
 
@@ -37,10 +35,6 @@ def _curve(r: pd.Series, title: str) -> dict:
             **{k: r[k] for k in ("w", "w_dot", "u1", "u1_dot", "u2", "u2_dot")}}
 
 
-def _f0_rel(r: pd.Series) -> float:
-    return float(json.loads(r["params_json"]).get("f0_rel", np.nan))
-
-
 def _law_title(r: pd.Series) -> str:
     return f"{r['law']}: {_label(r)}, $\\lambda_1 T$ = {r['lle_T']:+.3f}"
 
@@ -48,7 +42,7 @@ def _law_title(r: pd.Series) -> str:
 def _sweep(rows: pd.DataFrame, x_key: str, title: str, xlabel: str) -> dict:
     pts = []
     for _, r in rows.iterrows():
-        pts.append({"x": float(json.loads(r["params_json"])[x_key]), "label": str(r["label"]),
+        pts.append({"x": float(r[x_key]), "label": str(r["label"]),
                     "poincare_w": poincare_array(r["poincare_tip"])[:, 0],
                     "lle_T": r["lle_T"], "lle_benettin_T": r["lle_benettin_T"]})
     return {"title": title, "xlabel": xlabel, "log": True, "points": pts}
@@ -70,13 +64,13 @@ def draw_item(item: str, measured: pd.DataFrame | None, outputs: list[str], *, d
             curves = [dict(_curve(r, ""), label=f"N = {int(r['n_modes'])}")
                       for _, r in df.sort_values("n_modes").iterrows()]
             r0 = df.iloc[0]
-            cases.append({"title": f"Fig 8, {case}, f0_rel = {_f0_rel(r0):g}, from rest", "curves": curves})
+            cases.append({"title": f"Fig 8, {case}, f0_rel = {r0['f0_rel']:g}, from rest", "curves": curves})
         fig.plot_tip_histories(cases, outputs[0], dpi=dpi)
     elif item in ("fig9", "fig13"):
         rows = []
         for case, df in drawn(measured).groupby("case", sort=False):
             r0 = df.iloc[0]
-            title = f"{item} {case}: paper f0 = {r0['f0_paper']:g}, f0_rel = {_f0_rel(r0):.3g}"
+            title = f"{item} {case}: paper f0 = {r0['f0_paper']:g}, f0_rel = {r0['f0_rel']:.3g}"
             rows.append({"title": title, "panels": [_curve(r, _law_title(r)) for _, r in df.iterrows()]})
         fig.plot_law_pairs(rows, outputs[0], dpi=dpi)
     elif item == "fig10":
@@ -91,14 +85,14 @@ def draw_item(item: str, measured: pd.DataFrame | None, outputs: list[str], *, d
                               for law, df in freq.groupby("law", sort=False)], outputs[1], dpi=dpi,
                              resolution=resolution)
         tr = measured[measured["kind"] == "transient"]
-        fig.plot_poincare_transient([{"title": f"{r['case']} (f0_rel {_f0_rel(r):.3g}), from rest",
+        fig.plot_poincare_transient([{"title": f"{r['case']} (f0_rel {r['f0_rel']:.3g}), from rest",
                                       "poincare": poincare_array(r["poincare_tip"])}
                                      for _, r in tr.iterrows()], outputs[2], dpi=dpi)
     elif item == "fig11":
         cases = []
         for law, df in drawn(measured).groupby("law", sort=False):
             r = df.loc[df["lle_T"].fillna(-np.inf).idxmax()]  # the most unstable of the mapped loads
-            cases.append(_curve(r, f"{_law_title(r)}, f0_rel {_f0_rel(r):.3g}"))
+            cases.append(_curve(r, f"{_law_title(r)}, f0_rel {r['f0_rel']:.3g}"))
         fig.plot_layer_phase_planes(cases, outputs[0], dpi=dpi)
     elif item == "fig12":
         from beamsim.friction import smooth_traction

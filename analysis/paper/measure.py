@@ -97,7 +97,8 @@ def _classified(runs: list[PaperRun], nm: Numerics, store_root: str, threads: in
 def measure_runs(runs: list[PaperRun], numerics: Numerics | dict, store_root: str, *, threads: int = 1,
                  samples_per_period: int = 64, n_show: int = 30) -> pd.DataFrame:
     """One row per run, in the runs' order: the run's description (item, case, law, kind,
-    f0_paper, anchor, ratio, its parameters as JSON) and what it measured.
+    f0_paper, anchor, ratio, its load ``f0_rel``, all its parameters as JSON) and what it
+    measured.
 
     classified : label, period, reason, ``lle_T`` (Stefanski ``lambda_1`` per forcing period, the
         classifier's input), ``lle_benettin_T``, slip indicators, Poincare tip samples; with
@@ -114,7 +115,8 @@ def measure_runs(runs: list[PaperRun], numerics: Numerics | dict, store_root: st
         d = asdict(r)
         params = d.pop("params")
         extra = d.pop("extra")
-        rows.append(d | {"params_json": canonical_json(params)} | extra)
+        rows.append(d | {"params_json": canonical_json(params), "f0_rel": params.get("f0_rel", np.nan)}
+                    | extra)
     cls = [i for i, r in enumerate(runs) if r.kind == "classified"]
     if cls:
         for i, rec in zip(cls, _classified([runs[i] for i in cls], nm, store_root, threads)):

@@ -73,18 +73,9 @@ def labels_text(rows: pd.DataFrame) -> str:
     """``"f0_rel 1.05: period 1 (lambda_1 T -0.02); ..."`` for the rows of one law."""
     parts = []
     for _, r in rows.iterrows():
-        where = f"f0_rel {r['params_f0_rel']:.3g}" if "params_f0_rel" in r else ""
+        where = f"f0_rel {r['f0_rel']:.3g}" if "f0_rel" in r else ""
         parts.append(f"{where}: {_label(r)} (lambda_1 T {r['lle_T']:+.3f})")
     return "; ".join(parts)
-
-
-def _with_f0_rel(df: pd.DataFrame) -> pd.DataFrame:
-    import json
-
-    out = df.copy()
-    out["params_f0_rel"] = [json.loads(p).get("f0_rel", np.nan) for p in df["params_json"]]
-    out["params_Omega"] = [json.loads(p).get("Omega", np.nan) for p in df["params_json"]]
-    return out
 
 
 def history_difference(a: pd.Series, b: pd.Series, key: str = "w") -> float:
@@ -200,10 +191,9 @@ def _chaos_row(item: str, claim: str, df: pd.DataFrame, resolution: float) -> di
     return _row(item, claim, text + why, verdict)
 
 
-def fig9_verdicts(measured: pd.DataFrame, resolution: float) -> list[dict]:
+def fig9_verdicts(df: pd.DataFrame, resolution: float) -> list[dict]:
     """Fig 9a-b (two limit cycles of different shape), 9c (stick-slip chaos), 9d (full-slip limit
     cycle) from the fig9 item's runs; ``resolution``: the smallest ``lambda_1 T`` resolved."""
-    df = _with_f0_rel(measured)
     out = []
     ab = df[df["case"] == "(a, b)"]
     ss, fs = ab[ab["law"] == PAPER_LAW], ab[ab["law"] == "full-slip"]
@@ -213,7 +203,7 @@ def fig9_verdicts(measured: pd.DataFrame, resolution: float) -> list[dict]:
     if len(drawn_ss) and len(drawn_fs):
         diff = history_difference(drawn_ss.iloc[0], drawn_fs.iloc[0])
         text += (f"; tip histories differ by {100 * diff:.1f} % of the full-slip amplitude "
-                 f"(f0_rel {drawn_fs['params_f0_rel'].iloc[0]:.3g})")
+                 f"(f0_rel {drawn_fs['f0_rel'].iloc[0]:.3g})")
     else:
         diff = np.nan
     cycles = [_limit_cycle_verdict(ss), _limit_cycle_verdict(fs)]
@@ -290,9 +280,8 @@ def _slower_approach_row(df: pd.DataFrame) -> dict:
     return _row("fig10", claim, text, verdict)
 
 
-def fig10_verdicts(measured: pd.DataFrame, resolution: float) -> list[dict]:
+def fig10_verdicts(df: pd.DataFrame, resolution: float) -> list[dict]:
     """Fig 10a-f and the load sweep's chaos claim from the fig10 item's runs."""
-    df = _with_f0_rel(measured)
     cls = df[df["kind"] == "classified"]
     out = []
     out.append(pre_slip_verdict(cls[cls["case"] == "f0=0.5"]))
@@ -306,7 +295,7 @@ def fig10_verdicts(measured: pd.DataFrame, resolution: float) -> list[dict]:
     text = []
     for law, rows in sweep.groupby("law", sort=False):
         text.append(f"{law}: chaotic at {int((rows['label'] == 'chaotic').sum())} of {len(rows)} loads "
-                    f"(f0_rel {rows['params_f0_rel'].min():.3g}-{rows['params_f0_rel'].max():.3g}), "
+                    f"(f0_rel {rows['f0_rel'].min():.3g}-{rows['f0_rel'].max():.3g}), "
                     f"largest lambda_1 T {rows['lle_T'].max():+.3f}")
     verdict, _ = _chaos_verdict(sweep[sweep["law"] == PAPER_LAW], resolution)
     out.append(_row("fig10", "Section 4.3 and conclusions: after the initial slip the beam has chaotic "
@@ -317,7 +306,7 @@ def fig10_verdicts(measured: pd.DataFrame, resolution: float) -> list[dict]:
 def fig11_verdicts(measured: pd.DataFrame, resolution: float) -> list[dict]:
     """Fig 11's chaos claim from the fig11 item's runs."""
     return [_chaos_row("fig11", "Fig 11: chaotic after the initial slip (axial phase planes, Poincare maps)",
-                       _with_f0_rel(measured), resolution)]
+                       measured, resolution)]
 
 
 def fig12_verdicts(F_s: float, F_c: float, v_s: float, k_v: float, eps: float) -> list[dict]:
@@ -338,10 +327,9 @@ def fig12_verdicts(F_s: float, F_c: float, v_s: float, k_v: float, eps: float) -
                  text, REPRODUCED if ok else FALSE)]
 
 
-def fig13_verdicts(measured: pd.DataFrame) -> list[dict]:
+def fig13_verdicts(df: pd.DataFrame) -> list[dict]:
     """Fig 13: a limit cycle with both laws at every load, and the laws' difference falling with
     the load (monotone: reproduced; only from the smallest to the largest load: qualitatively)."""
-    df = _with_f0_rel(measured)
     out, diffs = [], []
     for case, rows in df.groupby("case", sort=False):
         dry, st = rows[rows["law"] != "Stribeck"], rows[rows["law"] == "Stribeck"]

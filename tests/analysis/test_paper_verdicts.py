@@ -34,9 +34,9 @@ MODEL = model_defaults(CONFIG["model"], PAPER)
 
 def _chaos_rows(labels_paper, lle_paper, labels_other=(), lle_other=()):
     rows = [{"law": PAPER_LAW, "label": lab, "period": 1 if lab == "periodic" else None, "lle_T": x,
-             "params_json": json.dumps({"f0_rel": 1.3})} for lab, x in zip(labels_paper, lle_paper)]
+             "f0_rel": 1.3} for lab, x in zip(labels_paper, lle_paper)]
     rows += [{"law": "mu_s/mu_k = 2", "label": lab, "period": None, "lle_T": x,
-              "params_json": json.dumps({"f0_rel": 1.3})} for lab, x in zip(labels_other, lle_other)]
+              "f0_rel": 1.3} for lab, x in zip(labels_other, lle_other)]
     return pd.DataFrame(rows)
 
 
