@@ -41,11 +41,18 @@ Decision rule
    torus), the spectral growth and ``K`` used below are the larger of the
    values for the series and for its residual after removing the pattern.
 
-   a. ``lle_per_period`` given: ``> lle_threshold`` -> chaotic, unless both
+   a. ``lle_interval`` given (a confidence interval ``[lo, hi]`` of
+      ``lambda_1 T``, :mod:`analysis.lyapunov.block_statistics`): ``lo >
+      lle_threshold`` -> chaotic; ``hi <= lle_threshold`` -> quasi-periodic;
+      an interval that straddles the threshold -> :data:`UNDETERMINED`.  An
+      exponent that the data contradict (positive with a discrete spectrum and a
+      regular 0-1 test, or non-positive with a broadband spectrum and a chaotic
+      0-1 test) is also :data:`UNDETERMINED`, with the conflict as its reason.
+   b. Only ``lle_per_period`` given: ``> lle_threshold`` -> chaotic, unless both
       the spectrum shows lines and ``K <= k_chaotic`` (then quasi-periodic,
       conflict reported); ``<= lle_threshold`` -> quasi-periodic (conflict
       reported if spectrum and ``K`` both say chaotic).
-   b. Not given: spectrum ``lines`` -> quasi-periodic; ``broadband`` ->
+   c. Neither: spectrum ``lines`` -> quasi-periodic; ``broadband`` ->
       chaotic; ``ambiguous`` -> the 0-1 test decides.
 
 Non-results
@@ -74,6 +81,7 @@ from analysis.poincare import (
     spectral_lines,
     validate_samples,
 )
+from analysis.transients import converging_period, drifting_component
 from analysis.zero_one import zero_one_test
 
 __all__ = [
@@ -84,29 +92,35 @@ __all__ = [
     "MIN_SAMPLES",
     "PERIODIC",
     "QUASI_PERIODIC",
+    "UNDETERMINED",
     "UNSETTLED",
     "RegimeResult",
     "Thresholds",
     "classify",
     "is_settled",
+    "transient_reason",
     "lle_per_period_from_rate",
 ]
 
 PERIODIC: str = "periodic"
 QUASI_PERIODIC: str = "quasi-periodic"
 CHAOTIC: str = "chaotic"
-#: The three labels :func:`classify` can return.
-LABELS: tuple[str, str, str] = (PERIODIC, QUASI_PERIODIC, CHAOTIC)
+#: Neither regular nor chaotic established: the exponent's confidence interval straddles the
+#: threshold, or the exponent and the Poincare data contradict each other (reason says which).
+UNDETERMINED: str = "undetermined"
+#: The labels :func:`classify` can return (:data:`UNDETERMINED` only with ``lle_interval``).
+LABELS: tuple[str, ...] = (PERIODIC, QUASI_PERIODIC, CHAOTIC, UNDETERMINED)
 #: Pipeline non-result: the integration diverged (non-finite or exploding state).
 DIVERGED: str = "diverged"
 #: Pipeline non-result: the transient is not over (see :func:`is_settled`).
 UNSETTLED: str = "unsettled"
 #: Bump when a change of :func:`classify` or :func:`is_settled` alters labels for unchanged
 #: samples: the pipeline's classify rule takes it as a parameter, so stored tables are
-#: relabelled without recomputing the simulations (2: noise-aware :func:`is_settled`).
-CLASSIFIER_VERSION: str = "2"
+#: relabelled without recomputing the simulations (2: noise-aware :func:`is_settled`; 3: the
+#: exponent's confidence interval and :data:`UNDETERMINED`, transient-trend test).
+CLASSIFIER_VERSION: str = "3"
 
-Label = Literal["periodic", "quasi-periodic", "chaotic"]
+Label = Literal["periodic", "quasi-periodic", "chaotic", "undetermined"]
 
 
 @dataclass(frozen=True)
@@ -116,7 +130,7 @@ class RegimeResult:
     Attributes
     ----------
     label
-        ``"periodic"``, ``"quasi-periodic"`` or ``"chaotic"``.
+        ``"periodic"``, ``"quasi-periodic"``, ``"chaotic"`` or ``"undetermined"``.
     period
         ``m`` of a period-``m`` orbit, else ``None``.
     reason
@@ -234,6 +248,52 @@ def is_settled(
     return bool(np.all(obs <= np.maximum(rtol, c)))
 
 
+def transient_reason(
+    poincare: ArrayLike,
+    *,
+    m_max: int = 32,
+    period_rtol: float = 0.02,
+    min_decay: float = 1.25,
+    min_drift: float = 0.05,
+    scale_floor_rtol: float = 0.1,
+    **settle_options,
+) -> str | None:
+    """Why the record is still a transient, or ``None`` when it looks settled.
+
+    Three tests, in order: the halves test :func:`is_settled` (``settle_options`` are its
+    keyword arguments); convergence towards a periodic orbit
+    (:func:`analysis.transients.converging_period`: the distance ``|x[i+m] - x[i]|`` of some
+    lag ``m <= m_max`` falls at least ``min_decay`` times over the record from above
+    ``period_rtol`` of the spread, i.e. the remnant is large enough to change the period test);
+    a linear drift of a component by more than ``min_drift`` of its spread
+    (:func:`analysis.transients.drifting_component`, on the record and, when a periodic
+    pattern dominates it, on the residual after removing the pattern).
+    """
+    x = validate_samples(poincare, name="poincare", min_samples=8)
+    if not is_settled(x, scale_floor_rtol=scale_floor_rtol, **settle_options):
+        return ("first and second half of the record differ (mean, spread or 5 % / 95 % "
+                "quantiles; is_settled)")
+    s = component_scales(x, floor_rtol=scale_floor_rtol)
+    conv = converging_period(x, s, m_max=m_max, min_decay=min_decay)
+    if conv is not None:
+        m, factor = conv
+        head = x[:max(m + 8, x.shape[0] // 8)]
+        start = float(np.median(np.max(np.abs(head[m:] - head[:-m]) / s, axis=1)))
+        if start > period_rtol:
+            return (f"converging towards a period-{m} orbit: |x[i+{m}] - x[i]| falls "
+                    f"{factor:.3g}x over the record from {start:.2g} of the spread")
+    drift = drifting_component(x, s, min_drift=min_drift)
+    if drift is None:  # a drift under a periodic pattern (whose block means alias)
+        pat = periodic_pattern(x, m_max=m_max)
+        if pat.period is not None and pat.period > 1:
+            drift = drifting_component(pat.residual, s, min_drift=min_drift)
+    if drift is not None:
+        j, amount = drift
+        return (f"component {j} drifts by {amount:+.3g} of its spread over the record (least-squares "
+                "trend of the block means, significant against their scatter)")
+    return None
+
+
 @dataclass(frozen=True)
 class Thresholds:
     """The settings of :func:`classify` (same names and meaning as its keyword arguments)."""
@@ -270,6 +330,7 @@ def classify(
     poincare: ArrayLike,
     lle_per_period: float | None = None,
     *,
+    lle_interval: tuple[float, float] | None = None,
     m_max: int = Thresholds.m_max,
     period_rtol: float = Thresholds.period_rtol,
     scale_floor_rtol: float = Thresholds.scale_floor_rtol,
@@ -295,6 +356,11 @@ def classify(
         Largest Lyapunov exponent **per forcing period** (per map iteration),
         or ``None``.  Convert a rate per unit time with
         :func:`lle_per_period_from_rate`.
+    lle_interval
+        Confidence interval ``(lo, hi)`` of ``lambda_1 T`` (per forcing period), or
+        ``None``; when given, the decision between chaos and regular motion is taken
+        from it (rule 2a of the module docstring) and ``lle_per_period`` is the point
+        estimate reported.
     m_max
         Largest period tested.
     period_rtol
@@ -336,18 +402,39 @@ def classify(
                     observable, zero_one_stride, seed)
     x = validate_samples(poincare, name="poincare", min_samples=MIN_SAMPLES)
     lle = _checked_lle(lle_per_period)
+    interval = _checked_interval(lle_interval, lle)
     ev = _evidence(x, lle, th)
+    if interval is not None:
+        ev.indicators["lle_lo"], ev.indicators["lle_hi"] = interval
     votes = _votes(ev, lle, th)
 
     def result(label: Label, period: int | None, reason: str) -> RegimeResult:
         return RegimeResult(label=label, period=period, reason=reason,
                             indicators=MappingProxyType(ev.indicators), votes=MappingProxyType(votes))
 
-    periodic = _periodic(ev, lle, th)
+    if interval is not None:
+        votes["lle"] = ("positive" if interval[0] > th.lle_threshold else
+                        "non-positive" if interval[1] <= th.lle_threshold else "undetermined")
+    periodic = _periodic(ev, lle if interval is None else interval[0], th)
     if periodic is not None:
         return result(PERIODIC, *periodic)
+    if interval is not None:
+        return result(*_aperiodic_interval(ev, votes, lle, interval, th))
     return result(*_aperiodic(ev, votes, lle, th))
 
+
+def _checked_interval(interval, lle: float | None) -> tuple[float, float] | None:
+    if interval is None:
+        return None
+    try:
+        lo, hi = (float(v) for v in interval)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"lle_interval must be a pair (lo, hi) of floats: {exc}") from exc
+    if np.isnan(lo) or np.isnan(hi) or lo > hi or lo == np.inf:
+        raise ValueError(f"lle_interval must be an ordered pair (lo <= hi), got {interval!r}")
+    if lle is None:
+        raise ValueError("lle_interval needs lle_per_period (the point estimate)")
+    return lo, hi
 
 def _checked_lle(lle_per_period) -> float | None:
     if lle_per_period is None:
@@ -356,7 +443,7 @@ def _checked_lle(lle_per_period) -> float | None:
         lle = float(lle_per_period)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"lle_per_period must be a float or None: {exc}") from exc
-    if not np.isfinite(lle):
+    if not (np.isfinite(lle) or lle == -np.inf):  # -inf: copies coincided (contraction)
         raise ValueError(f"lle_per_period must be finite; got {lle_per_period!r}")
     return lle
 
@@ -485,3 +572,30 @@ def _aperiodic(ev: _Evidence, votes: dict[str, str], lle: float | None,
         return CHAOTIC, None, f"{nonper}; broadband spectrum ({facts})"
     label: Label = CHAOTIC if votes["zero_one"] == "chaotic" else QUASI_PERIODIC
     return label, None, f"{nonper}; spectrum ambiguous, 0-1 test decides ({facts})"
+
+
+def _aperiodic_interval(ev: _Evidence, votes: dict[str, str], lle: float,
+                        interval: tuple[float, float], th: Thresholds) -> tuple[Label, None, str]:
+    """Rule 2a: chaotic, quasi-periodic or undetermined from the exponent's confidence
+    interval, ``(label, None, reason)``."""
+    lo, hi = interval
+    thr = th.lle_threshold
+    facts = f"spectral growth {ev.growth:.2f} ({votes['spectrum']}), 0-1 test K={ev.k_val:.2f}"
+    if ev.pat.period is not None:
+        facts += f" (and of the residual of the period-{ev.pat.period} pattern)"
+    est = f"lambda_1={lle:.3g}/period, interval [{lo:.3g}, {hi:.3g}]"
+    nonper = f"no period <= {th.m_max} (best residual {ev.per.best_residual:.2g})"
+    data_regular = votes["spectrum"] == "lines" and votes["zero_one"] == "regular"
+    data_chaotic = votes["spectrum"] == "broadband" and votes["zero_one"] == "chaotic"
+    if lo > thr:
+        if data_regular:
+            return (UNDETERMINED, None, f"{nonper}; CONFLICT: {est} above {thr:g} but discrete "
+                    f"spectrum and regular 0-1 test ({facts})")
+        return CHAOTIC, None, f"{nonper}; {est} above {thr:g} ({facts})"
+    if hi <= thr:
+        if data_chaotic:
+            return (UNDETERMINED, None, f"{nonper}; CONFLICT: {est} at or below {thr:g} but "
+                    f"broadband spectrum and chaotic 0-1 test ({facts})")
+        return QUASI_PERIODIC, None, f"{nonper}; {est} at or below {thr:g} rules out chaos ({facts})"
+    return (UNDETERMINED, None, f"{nonper}; {est} straddles the threshold {thr:g}: the record "
+            f"does not decide between chaos and a torus ({facts})")

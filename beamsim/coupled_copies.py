@@ -60,10 +60,16 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
                renorm_period: np.ndarray | None = None, band: tuple[float, float] = (1e-4, 1e4),
                steps_per_period: int | None = None, step_factor: float = 0.5,
                n_threads: int | None = None, split: int | None = None,
-               div_limit: float = 1e6) -> np.ndarray:
+               div_limit: float = 1e6, return_final: bool = False):
     """Integrate the drive and its copies for ``n_periods`` forcing periods (see the module
     docstring) and return ``ln eps`` of shape ``(P, M, n_periods + 1)`` at the period
     boundaries (``nan``: the drive diverged; ``+inf``: the copy did).
+
+    With ``return_final`` also the end states, ``(P, M + 1, 2 n + 2 n_quad)`` (row 0 the drive,
+    row ``1 + m`` copy ``m``; layout of ``x_start``): a run restarted from the drive's end
+    state with the offsets ``final[:, 1:, :2 n + n_quad] - final[:, :1, :2 n + n_quad]``
+    continues this one step for step (the drive bitwise: the forcing phase restarts at
+    ``t = 0`` on a period boundary), with the ``ln eps`` record starting afresh.
 
     prepared : ``P`` points (:func:`beamsim.simulate.prepare_point`, same ``n`` and ``n_quad``).
     x_start : ``(P, 2 n + 2 n_quad)`` drive restart states ``(q, v, z, mode)``
@@ -111,6 +117,7 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
     tasks = [(p, int(chunk[0]), int(chunk[-1]) + 1) for p in range(P)
              for chunk in np.array_split(np.arange(M), split) if chunk.size]
     log_err = np.full((P, M, n_periods + 1), np.nan)
+    final = np.full((P, M + 1, 2 * n + 2 * nq), np.nan)
     old = numba.get_num_threads()
     if n_threads is not None:
         numba.set_num_threads(threads)
@@ -118,8 +125,8 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
         copies.run_tasks(np.array(tasks, np.int64).reshape(-1, 3), stk,
                          copies.CopySchedule(h, n_per, n_periods, stk.divl), x_start,
                          copies.CopySpec(offsets, d, renorm_period, inv_scale),
-                         copies.Band(e0, e0 * band[0], e0 * band[1]), log_err)
+                         copies.Band(e0, e0 * band[0], e0 * band[1]), log_err, final)
     finally:
         if n_threads is not None:
             numba.set_num_threads(old)
-    return log_err
+    return (log_err, final) if return_final else log_err

@@ -153,11 +153,11 @@ def plot_poincare_transient(cases: list[dict], path: str, dpi: int = 130) -> Non
 
 def plot_load_sweeps(sweeps: list[dict], path: str, dpi: int = 130, resolution: float | None = None) -> None:
     """One column per sweep: bifurcation diagram (Poincare tip ``w`` at every value of the swept
-    parameter, coloured by label) over the lambda_1 curve (Stefanski and Benettin, per forcing
-    period).
+    parameter, coloured by label) over the lambda_1 curve (per forcing period: the block mean
+    of the long Benettin record with its confidence band, and the Stefanski cross-check).
 
     ``sweeps``: dicts with ``title``, ``xlabel``, ``log`` and ``points``, a list of dicts with
-    ``x``, ``label``, ``poincare_w``, ``lle_T``, ``lle_benettin_T``.
+    ``x``, ``label``, ``poincare_w``, ``lle_T``, ``lle_lo_T``, ``lle_hi_T``, ``lle_stefanski_T``.
     """
     n = max(1, len(sweeps))
     fig, axes = plt.subplots(2, n, figsize=(6.0 * n, 6.4), constrained_layout=True, squeeze=False,
@@ -174,8 +174,10 @@ def plot_load_sweeps(sweeps: list[dict], path: str, dpi: int = 130, resolution: 
         top.set_ylabel(r"$w(\beta)/R$ at $t = kT$")
         top.set_title(s["title"], fontsize=9)
         x = [p["x"] for p in pts]
-        bottom.plot(x, [p["lle_T"] for p in pts], "o-", ms=3, label="Stefanski")
-        bottom.plot(x, [p["lle_benettin_T"] for p in pts], "s--", ms=3, label="Benettin")
+        bottom.fill_between(x, [p["lle_lo_T"] for p in pts], [p["lle_hi_T"] for p in pts],
+                            color="C0", alpha=0.25, lw=0, label="95 % interval")
+        bottom.plot(x, [p["lle_T"] for p in pts], "o-", ms=3, label="block mean (label)")
+        bottom.plot(x, [p["lle_stefanski_T"] for p in pts], "s--", ms=3, label="Stefanski")
         if resolution is not None:
             bottom.axhspan(-resolution, resolution, color="0.9", label="resolution")
         bottom.axhline(0.0, color="0.5", lw=0.6)

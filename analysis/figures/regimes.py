@@ -18,6 +18,7 @@ LABEL_COLOURS = {
     "periodic (m > 1)": "#1b3a6b",
     "quasi-periodic": "#55a868",
     "chaotic": "#c44e52",
+    "undetermined": "#dd8452",
     "unsettled": "#bbbbbb",
     "diverged": "#000000",
 }
@@ -156,8 +157,11 @@ def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: in
     if len(axes) == 2:
         xa, ya = axes
         xs, ys = np.sort(table[xa].unique()), np.sort(table[ya].unique())
-        cols = [(c, name) for c, name in (("lle_stefanski", "Stefanski synchronisation"),
-                                          ("lle_benettin", "Benettin (two trajectories)"))
+        cols = [(c, name) for c, name in (("lle_mean", "label's exponent: block mean of the long Benettin "
+                                                        "record (x: interval straddles the margin);\n"
+                                                        "0 where every element stayed stuck (linear), "
+                                                        "25-period value on periodic records"),
+                                          ("lle_stefanski", "Stefanski synchronisation (cross-check)"))
                 if c in table.columns]
         grids = []
         for col, _ in cols:
@@ -171,11 +175,14 @@ def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: in
         fig, axs = plt.subplots(1, len(cols), figsize=(6.5 * len(cols), 5.5), constrained_layout=True,
                                 sharey=True, squeeze=False)
         xe, ye = _edges(xs, _is_log(grid, xa)), _edges(ys, _is_log(grid, ya))
-        for ax, z, (_, name) in zip(axs[0], grids, cols):
+        for ax, z, (col, name) in zip(axs[0], grids, cols):
             mesh = ax.pcolormesh(xe, ye, z, cmap="RdBu_r", norm=TwoSlopeNorm(0.0, -lim, lim))
             for iy, ix in zip(*np.nonzero(np.isfinite(z) & (np.abs(np.nan_to_num(z)) > lim))):
                 ax.text(xs[ix], ys[iy], f"{z[iy, ix]:.3g}", ha="center", va="center", fontsize=6,
                         color="white")
+            if col == "lle_mean" and "lle_verdict" in table.columns:
+                und = table[table["lle_verdict"] == "undetermined"]
+                ax.plot(und[xa], und[ya], "x", color="k", ms=4, mew=0.8)
             for nm, setter in ((xa, ax.set_xscale), (ya, ax.set_yscale)):
                 if _is_log(grid, nm):
                     setter("log")
@@ -191,8 +198,13 @@ def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: in
     else:
         xa = axes[0]
         fig, ax = plt.subplots(figsize=(9, 4), constrained_layout=True)
-        ax.plot(table[xa], table["lle_stefanski"] * period, "o-", ms=3, label="Stefanski")
-        for col, style in (("lle_benettin", "^:"), ("lle_nolds", "s--")):
+        if "lle_mean" in table.columns:
+            ax.fill_between(table[xa], table["lle_lo"] * period, table["lle_hi"] * period, color="C0",
+                            alpha=0.25, lw=0, label="95 % interval (block statistics)")
+            ax.plot(table[xa], table["lle_mean"] * period, "o-", ms=3, color="C0",
+                    label="block mean (decides the label)")
+        ax.plot(table[xa], table["lle_stefanski"] * period, "D:", ms=3, label="Stefanski")
+        for col, style in (("lle_nolds", "s--"),):
             if col in table.columns:
                 ax.plot(table[xa], table[col] * period, style, ms=3, label=col[4:])
         ax.axhline(0, color="0.5", lw=0.8)

@@ -43,6 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from analysis.lyapunov.block_statistics import UNDETERMINED, BlockPlan, LLEStatistics
 from analysis.lyapunov.result import LLEResult
 from analysis.lyapunov.sync_rule import coupling_cap, exp_clip, perturbation, sync_test, zero_tolerance
 from analysis.lyapunov.sync_search import sync_search
@@ -53,13 +54,16 @@ __all__ = ["BeamLLE", "attractor_scale", "beam_benettin", "beam_lle", "initial_o
 
 @dataclass
 class BeamLLE:
-    """Both estimates of one grid point.  ``stefanski`` and ``benettin`` are
-    :class:`analysis.lyapunov.result.LLEResult` (value per unit dimensionless time); ``period``
-    is the forcing period ``T``."""
+    """The estimates of one grid point.  ``stefanski`` and ``benettin`` are
+    :class:`analysis.lyapunov.result.LLEResult` (value per unit dimensionless time) over the
+    ``n_periods`` window; ``statistics`` the block statistics of the long Benettin record
+    (:mod:`analysis.lyapunov.block_statistics`; ``None`` without a :class:`BlockPlan`);
+    ``period`` is the forcing period ``T``."""
 
     stefanski: LLEResult
     benettin: LLEResult
     period: float
+    statistics: LLEStatistics | None = None
 
 
 def attractor_scale(poincare_state: np.ndarray, q_ref: np.ndarray, omega: float) -> np.ndarray:
@@ -132,8 +136,9 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
              band: tuple[float, float] = (1e-2, 1e2), with_benettin: bool = True,
              zero_first: bool = True, seed_ladder: bool = True,
              steps_per_period: int | None = None, step_factor: float = 0.5,
-             n_threads: int | None = None) -> list[BeamLLE]:
-    """Stefanski and Benettin estimates of ``lambda_1`` for each point.
+             n_threads: int | None = None, plan: BlockPlan | None = None) -> list[BeamLLE]:
+    """Stefanski and Benettin estimates of ``lambda_1`` for each point, and with ``plan`` the
+    block statistics of a long Benettin record.
 
     prepared : points from :func:`beamsim.simulate.prepare_point` (same ``n``, ``n_quad``).
     x_start : ``(P, 2 n + 2 n_quad)`` restart states (``SimResult.final_state``).
@@ -155,6 +160,12 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
         a copy is moved back to ``e0`` (narrower than the generic estimator's: a stick/slip
         switch that one copy makes and the other does not is a nonlinear event, so the
         separation must stay far below the attractor size).
+    plan : the long record (:class:`analysis.lyapunov.block_statistics.BlockPlan`): the free
+        copy of round 0 runs ``plan.first_periods`` (at least ``n_periods``; the Stefanski test
+        and the window Benettin value read its first ``n_periods``), and points whose interval
+        straddles the margin are continued one block at a time from the end states, up to
+        ``plan.max_periods``.  Needs ``with_benettin``.  The continuation is exact (same steps as
+        one long run), so the statistics do not depend on the batch.
     """
     from beamsim.coupled_copies import run_copies
     from beamsim.point import period_steps
@@ -175,11 +186,17 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
     # the same record serves the Benettin estimate and Stefanski's d = 0 test.  Every copy of a
     # point follows the same drive trajectory (beamsim.coupled_copies), so the Stefanski
     # candidates and the Benettin copy measure the same stretch of the attractor
+    if plan is not None and not with_benettin:
+        raise ValueError("beam_lle: plan needs with_benettin")
     t_run = time.perf_counter()
     off0 = np.stack([o[None, :] for o in offs])
-    le0 = run_copies(prepared, x_start, off0, np.zeros((P, 1)), inv,
-                     renorm_period=np.full((P, 1), with_benettin), **run_kw)
+    first = n_periods if plan is None else max(n_periods, plan.first_periods)
+    le0, fin = run_copies(prepared, x_start, off0, np.zeros((P, 1)), inv,
+                          renorm_period=np.full((P, 1), with_benettin), return_final=True,
+                          **dict(run_kw, n_periods=first))
     t_round0 = time.perf_counter() - t_run
+    stats = _long_records(prepared, le0[:, 0], fin, inv, periods, plan, run_kw) if plan else [None] * P
+    le0 = le0[:, :, :n_periods + 1]
 
     out = []
     for i, pp in enumerate(prepared):
@@ -207,8 +224,35 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
                          ladder_hint=ben.value if seed_ladder else None)
         st.runtime = time.perf_counter() - t_pt + t_round0 / P
         st.extras["n_batches"] = n_runs[0]
-        out.append(BeamLLE(stefanski=st, benettin=ben, period=T))
+        out.append(BeamLLE(stefanski=st, benettin=ben, period=T, statistics=stats[i]))
     return out
+
+
+def _long_records(prepared: list, first: np.ndarray, fin: np.ndarray, inv: np.ndarray,
+                  periods: list[float], plan: BlockPlan, run_kw: dict) -> list[LLEStatistics]:
+    """Block statistics of every point's renormalised record ``first`` (``(P, K + 1)``),
+    continuing the undetermined ones one block at a time from the end states ``fin``."""
+    from beamsim.coupled_copies import run_copies
+
+    n, nq = prepared[0].model.n, prepared[0].model.n_quad
+    cont = 2 * n + nq  # continuous part of a state: (q, v, z)
+    records = [first[i] for i in range(len(prepared))]
+    stats = [plan.statistics(r, T) for r, T in zip(records, periods)]
+    fin = fin.copy()
+    while True:
+        todo = [i for i, st in enumerate(stats) if st.verdict == UNDETERMINED
+                and records[i].size - 1 < plan.max_periods and np.all(np.isfinite(fin[i]))]
+        if not todo:
+            return stats
+        off = fin[todo, 1:2, :cont] - fin[todo, 0:1, :cont]
+        le, f = run_copies([prepared[i] for i in todo], fin[todo, 0], off, np.zeros((len(todo), 1)),
+                           inv[todo], renorm_period=np.ones((len(todo), 1), np.bool_),
+                           return_final=True, **dict(run_kw, n_periods=plan.block))
+        for k, i in enumerate(todo):
+            rec = le[k, 0]
+            records[i] = np.concatenate([records[i], records[i][-1] + (rec[1:] - rec[0])])
+            fin[i] = f[k]
+            stats[i] = plan.statistics(records[i], periods[i])
 
 
 def beam_benettin(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_periods: int = 30,

@@ -44,7 +44,8 @@ def _sweep(rows: pd.DataFrame, x_key: str, title: str, xlabel: str) -> dict:
     for _, r in rows.iterrows():
         pts.append({"x": float(r[x_key]), "label": str(r["label"]),
                     "poincare_w": poincare_array(r["poincare_tip"])[:, 0],
-                    "lle_T": r["lle_T"], "lle_benettin_T": r["lle_benettin_T"]})
+                    "lle_T": r["lle_T"], "lle_lo_T": r["lle_lo_T"],
+                    "lle_hi_T": r["lle_hi_T"], "lle_stefanski_T": r["lle_stefanski_T"]})
     return {"title": title, "xlabel": xlabel, "log": True, "points": pts}
 
 

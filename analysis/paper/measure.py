@@ -29,7 +29,8 @@ __all__ = ["measure_runs", "dense_history", "drawn"]
 log = logging.getLogger("paper")
 
 #: columns copied from the stages' tables to a classified run's row
-_STAGE_COLUMNS = ("label", "period", "reason", "lle_stefanski", "lle_benettin", "omega", "Omega", "f0",
+_STAGE_COLUMNS = ("label", "period", "reason", "lle_mean", "lle_stefanski", "lle_benettin", "omega", "Omega",
+                  "f0",
                   "f_cr", "diverged", "slipped", "t_first_slip", "stick_fraction", "poincare_tip")
 
 
@@ -86,8 +87,10 @@ def _classified(runs: list[PaperRun], nm: Numerics, store_root: str, threads: in
         t = table.loc[pid]
         row = {"point_id": pid} | {c: t[c] for c in _STAGE_COLUMNS}
         T = 2.0 * np.pi / float(t["omega"])
-        row["lle_T"] = float(t["lle_stefanski"]) * T
-        row["lle_benettin_T"] = float(t["lle_benettin"]) * T
+        row["lle_T"] = float(t["lle_mean"]) * T
+        row["lle_lo_T"] = float(t["lle_lo"]) * T
+        row["lle_hi_T"] = float(t["lle_hi"]) * T
+        row["lle_stefanski_T"] = float(t["lle_stefanski"]) * T
         row["period"] = None if pd.isna(t["period"]) else int(t["period"])
         row["final_state"] = t["final_state"]
         rows.append(row)
@@ -100,8 +103,10 @@ def measure_runs(runs: list[PaperRun], numerics: Numerics | dict, store_root: st
     f0_paper, anchor, ratio, its load ``f0_rel``, all its parameters as JSON) and what it
     measured.
 
-    classified : label, period, reason, ``lle_T`` (Stefanski ``lambda_1`` per forcing period, the
-        classifier's input), ``lle_benettin_T``, slip indicators, Poincare tip samples; with
+    classified : label, period, reason, ``lle_T`` (``lambda_1`` per forcing period, the block
+        mean of the long Benettin record: the classifier's input) with its confidence interval
+        ``lle_lo_T``, ``lle_hi_T``, the Stefanski cross-check ``lle_stefanski_T``, slip indicators,
+        Poincare tip samples; with
         ``draw``, the dense history of ``n_show`` periods continuing the reference run.
     history : the dense history from rest over ``extra['n_periods']`` periods.
     transient : Poincare tip samples from rest over ``extra['n_periods']`` periods.

@@ -26,15 +26,34 @@ METHODS = ("auto", *SIMULATOR_METHODS)
 class LyapunovNumerics:
     """Settings of the Lyapunov stage.
 
-    n_periods : length of every synchronisation test and of the Benettin run, in forcing
-        periods; ``lambda_1 T`` below ``5 / n_periods`` is reported as zero.
+    n_periods : length of every synchronisation test (Stefanski, the cross-check) and of the
+        window Benettin value that seeds its ladder, in forcing periods.
     step_factor : RK4 step of the Lyapunov runs, ``h = step_factor / omega_max``.
     nolds_emb_dim : embedding dimension of the Rosenstein (nolds) estimate.
+    block_periods, burn_in, min_blocks, max_blocks, confidence, margin : the long Benettin
+        record whose block statistics decide the label
+        (:class:`analysis.lyapunov.block_statistics.BlockPlan`): ``burn_in + min_blocks *
+        block_periods`` periods first, extended one block at a time while the
+        ``confidence`` interval of ``lambda_1 T`` straddles ``margin`` (per forcing period),
+        up to ``max_blocks`` blocks.
     """
 
     n_periods: int = 25
     step_factor: float = 0.5
     nolds_emb_dim: int = 6
+    block_periods: int = 25
+    burn_in: int = 25
+    min_blocks: int = 3
+    max_blocks: int = 8
+    confidence: float = 0.95
+    margin: float = 0.05
+
+    def block_plan(self):
+        """The :class:`analysis.lyapunov.block_statistics.BlockPlan` of these settings."""
+        from analysis.lyapunov.block_statistics import BlockPlan
+
+        return BlockPlan(block=self.block_periods, burn_in=self.burn_in, min_blocks=self.min_blocks,
+                         max_blocks=self.max_blocks, confidence=self.confidence, margin=self.margin)
 
 
 @dataclass(frozen=True)
@@ -45,6 +64,10 @@ class Numerics:
     step_factor : RK4 step ``h = step_factor / omega_max`` (ignored with ``steps_per_period``).
     steps_per_period : fixed RK4 steps per forcing period, or ``None``.
     n_transient, n_record : forcing periods discarded / recorded (Poincare samples).
+    n_transient_max : cap of the adaptive transient: a point whose record is still a transient
+        (:func:`analysis.regimes.transient_reason`) is continued from its end state by another
+        ``n_transient`` periods and a new record, the old record joining the transient, while
+        the transient stays within ``n_transient_max`` periods.
     chunk_size : grid points per job (not part of a point's id).
     """
 
@@ -52,7 +75,8 @@ class Numerics:
     step_factor: float = 1.0
     steps_per_period: int | None = None
     n_transient: int = 200
-    n_record: int = 128
+    n_record: int = 256
+    n_transient_max: int = 1200
     chunk_size: int = 100
     lyapunov: LyapunovNumerics = field(default_factory=LyapunovNumerics)
 
@@ -71,7 +95,15 @@ class Numerics:
                              f"allowed: {sorted(known_l)}")
         if kw.get("method", cls.method) not in METHODS:
             raise ValueError(f"numerics.method = {kw['method']!r}; allowed: {', '.join(METHODS)}")
-        return cls(**kw, lyapunov=LyapunovNumerics(**lyap))
+        out = cls(**kw, lyapunov=LyapunovNumerics(**lyap))
+        if out.n_transient_max < out.n_transient:
+            raise ValueError(f"numerics.n_transient_max = {out.n_transient_max} must be >= "
+                             f"numerics.n_transient = {out.n_transient}")
+        ly = out.lyapunov
+        if not 2 <= ly.min_blocks <= ly.max_blocks:
+            raise ValueError(f"numerics.lyapunov: need 2 <= min_blocks <= max_blocks, got "
+                             f"min_blocks = {ly.min_blocks}, max_blocks = {ly.max_blocks}")
+        return out
 
     def result_dict(self) -> dict:
         """The settings that change results, resolved, as they enter point ids and the rules'

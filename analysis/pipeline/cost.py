@@ -5,8 +5,15 @@ The estimate is a cost model, ``seconds = c * periods / Omega``, per stage and p
 * simulate: ``c_sim(method, n_modes) * (n_transient + n_record) / Omega`` (RK4 also scaled by
   ``1 / step_factor``): the integrators' cost is proportional to the simulated time, and a
   forcing period is ``2 pi / (Omega omega_1)`` long;
-* lyapunov: ``c_lyap(n_modes) * n_periods / Omega * 0.5 / step_factor`` (the synchronisation
-  search and the Benettin run are a fixed number of ``n_periods``-long RK4 runs).
+* lyapunov: ``c_lyap(n_modes) * periods / Omega * 0.5 / step_factor`` with ``periods`` the
+  Stefanski window ``n_periods`` plus, for the expected share :data:`LONG_RECORD_SHARE` of the
+  points that need the label's long Benettin record, its expected extra length (half-way
+  between the first run and the cap);
+* the adaptive transient adds one continuation (``n_transient + n_record`` periods) to the
+  expected share :data:`EXTENDED_SHARE` of the points.
+
+The two shares are measured on the default grid (docs/pipeline.md: 26 % of the points ran a
+long record, 29 % were continued, 3.5 % twice); other grids differ.
 
 The coefficients ``c`` (seconds per forcing period at ``Omega = 1``, one thread, after
 compilation) are measured, not typed: ``benchmarks/cost_model.py --write`` runs the stages on a
@@ -32,6 +39,10 @@ __all__ = ["COST_MODEL_FILE", "Estimate", "LONG_RUN_SECONDS", "estimate_run", "l
 COST_MODEL_FILE = Path(__file__).with_name("cost_model.yaml")
 #: a run estimated longer than this on the current cores needs ``--config allow_long=True``
 LONG_RUN_SECONDS = 3600
+#: expected share of points whose label needs the long Benettin record (default grid: 0.26)
+LONG_RECORD_SHARE = 1.0 / 3.0
+#: expected share of points the adaptive transient continues (default grid: 0.29)
+EXTENDED_SHARE = 0.3
 
 
 @dataclass(frozen=True)
@@ -95,11 +106,16 @@ def point_seconds(params: Mapping, numerics: Numerics, model: Mapping, stages: I
         method = integrator(numerics.method, params)
         c = _coefficient(model["simulate"][method], n_modes)
         scale = 1.0 / numerics.step_factor if method == "rk4" else 1.0
-        seconds += c * (numerics.n_transient + numerics.n_record) * scale / omega
+        run = numerics.n_transient + numerics.n_record
+        if numerics.n_transient_max >= numerics.n_transient + run:
+            run *= 1.0 + EXTENDED_SHARE
+        seconds += c * run * scale / omega
     if "lyapunov" in stages:
         c = _coefficient(model["lyapunov"], n_modes)
         ly = numerics.lyapunov
-        seconds += c * ly.n_periods * (0.5 / ly.step_factor) / omega
+        plan = ly.block_plan()
+        extra = max(0.0, 0.5 * (plan.first_periods + plan.max_periods) - ly.n_periods)
+        seconds += c * (ly.n_periods + LONG_RECORD_SHARE * extra) * (0.5 / ly.step_factor) / omega
     return seconds
 
 

@@ -25,7 +25,7 @@ import numpy as np
 from analysis.pipeline.config import Numerics, as_numerics
 
 #: bump when a code change alters results for unchanged parameters (invalidates all ids)
-RESULTS_VERSION = "5"
+RESULTS_VERSION = "6"  # 6: adaptive transients, block statistics of lambda_1
 
 
 def _canonical(value):

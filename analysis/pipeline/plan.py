@@ -75,7 +75,10 @@ def build_plan(config: dict, schemas: Path) -> Plan:
     model_schema = yaml.safe_load((schemas / "config.schema.yaml").read_text())["$defs"]["model"]
     validate_grid_values(grids["grids"], model_schema, grid_file)
 
-    numerics = Numerics.from_dict(config["numerics"])
+    try:
+        numerics = Numerics.from_dict(config["numerics"])
+    except ValueError as exc:  # settings that contradict each other (n_transient_max < n_transient, ...)
+        raise WorkflowError(f"invalid config: {exc}") from None
     result_numerics = numerics.result_dict()
     table_config = {k: v for k, v in config.items() if k not in RUN_ONLY_KEYS}
     payload = canonical_json({"config": table_config, "grids": grids})

@@ -87,17 +87,48 @@ def integrator(method: str, params: dict) -> str:
     return "expo" if params.get("law", "stick-slip") == "stick-slip" else "rk4"
 
 
-def _simulate_group(points: list[dict], nm: Numerics, threads: int) -> list[dict]:
+def simulate_runs(points: list[dict], nm: Numerics, threads: int) -> list[dict]:
     """Reference trajectory of each point in one batch: ``n_transient`` periods discarded,
-    ``n_record`` recorded, and the final state (restart point of the Lyapunov stage)."""
-    from beamsim.simulate import simulate_batch
+    ``n_record`` recorded, and the final state (restart point of the Lyapunov stage).
 
-    res = simulate_batch([p["params"] for p in points], n_transient=nm.n_transient,
-                         n_record=nm.n_record, method=integrator(nm.method, points[0]["params"]),
-                         steps_per_period=nm.steps_per_period, step_factor=nm.step_factor,
-                         n_threads=threads)
+    Adaptive transient: a point whose record is still a transient
+    (:func:`analysis.regimes.transient_reason`) is continued from its end state by another
+    ``n_transient`` periods and a fresh record of ``n_record`` periods (the old record joins the
+    transient) while the transient stays within ``n_transient_max``; the record kept is the
+    last one, ``n_transient_used`` says after how many periods it starts.  A point's
+    continuation depends on its own record only (same result in any batch)."""
+    from analysis.regimes import transient_reason
+    from beamsim.simulate import restart_params, simulate_batch
+
+    kw = dict(n_record=nm.n_record, method=integrator(nm.method, points[0]["params"]),
+              steps_per_period=nm.steps_per_period, step_factor=nm.step_factor, n_threads=threads)
+    results = list(simulate_batch([p["params"] for p in points], n_transient=nm.n_transient,
+                                  **kw).results)
+    used = [nm.n_transient] * len(points)
+    t_start = [0.0] * len(points)  # time of the kept run's start
+    first_slip = [(r.slipped, r.t_first_slip) for r in results]
+
+    def still_transient(i: int) -> bool:
+        r = results[i]
+        x = r.poincare_state
+        if r.diverged or not np.all(np.isfinite(x)):
+            return False
+        if used[i] + nm.n_record + nm.n_transient > nm.n_transient_max:
+            return False
+        return transient_reason(x) is not None
+
+    while todo := [i for i in range(len(points)) if still_transient(i)]:
+        ext = simulate_batch([restart_params(results[i]) for i in todo], n_transient=nm.n_transient,
+                             **kw).results
+        for i, r in zip(todo, ext):
+            t0 = (used[i] + nm.n_record) * 2.0 * np.pi / r.omega  # time at which ext started
+            if not first_slip[i][0] and r.slipped:
+                first_slip[i] = (True, t0 + r.t_first_slip)
+            used[i] += nm.n_record + nm.n_transient
+            t_start[i] = t0
+            results[i] = r
     out = []
-    for r in res.results:
+    for r, n_tr, t_run, (slipped, t_slip) in zip(results, used, t_start, first_slip):
         energy = r.energy
         w_in = float(energy[-1, 0] - energy[0, 0])
         residual = r.energy_residual[-1] - r.energy_residual[0]
@@ -107,8 +138,9 @@ def _simulate_group(points: list[dict], nm: Numerics, threads: int) -> list[dict
             "final_state": r.final_state,
             "f0": r.f0, "f_cr": r.f_cr, "omega": r.omega, "Omega": r.Omega, "lam_f": r.lam_f,
             "steps_per_period": r.steps_per_period, "method": r.method,
-            "diverged": bool(r.diverged), "t_diverged": r.t_diverged,
-            "slipped": r.slipped, "t_first_slip": r.t_first_slip,
+            "n_transient_used": int(n_tr),
+            "diverged": bool(r.diverged), "t_diverged": t_run + r.t_diverged,
+            "slipped": bool(slipped), "t_first_slip": t_slip,
             "stick_fraction": r.stick_fraction,
             "diss_per_cycle": float(np.mean(diss)) if np.isfinite(diss).all() else np.nan,
             "energy_residual_rel": float(abs(residual) / abs(w_in)) if w_in != 0 else np.nan,
@@ -130,15 +162,16 @@ def simulate_points(points: Sequence[dict], numerics: Numerics | dict, store_roo
             groups.setdefault(key, []).append(i)
         recs: list = [None] * len(batch)
         for idx in groups.values():
-            for i, rec in zip(idx, _simulate_group([batch[i] for i in idx], nm, threads)):
+            for i, rec in zip(idx, simulate_runs([batch[i] for i in idx], nm, threads)):
                 recs[i] = rec
         return recs
 
     recs = _cached_stage(points, store, compute, batch_size=max(2 * threads, 25), stage="simulate")
-    return _table(points, recs)
+    return records_table(points, recs)
 
 
-def _table(points: Sequence[dict], recs: Sequence[dict]) -> pd.DataFrame:
+def records_table(points: Sequence[dict], recs: Sequence[dict]) -> pd.DataFrame:
+    """One row per point: its ``point_id`` and its stage record (arrays as lists)."""
     rows = []
     for p, rec in zip(points, recs):
         row = {"point_id": p["point_id"]}
@@ -154,10 +187,11 @@ def poincare_array(value) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------- lyapunov
-def _lyapunov_group(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: int) -> list[dict]:
-    """Stefanski and Benettin estimates (analysis.lyapunov.beam) and nolds for one batch."""
+def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: int) -> list[dict]:
+    """Stefanski and Benettin estimates (analysis.lyapunov.beam), the block statistics of the
+    long Benettin record and nolds for one batch; ``sim``: the simulate records indexed by
+    ``point_id``."""
     from analysis.lyapunov.beam import attractor_scale, beam_lle, response_scale
-    from analysis.lyapunov.nolds_rosenstein import nolds_lle
     from beamsim.simulate import prepare_point
 
     lopt = nm.lyapunov
@@ -170,33 +204,93 @@ def _lyapunov_group(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads
         if r["diverged"] or not (np.all(np.isfinite(x)) and np.all(np.isfinite(fs))):
             recs[i] = {"lle_stefanski": np.nan, "lle_stefanski_verdict": "not computed: diverged",
                        "lle_stefanski_lo": np.nan, "lle_stefanski_hi": np.nan,
-                       "lle_benettin": np.nan, "lle_nolds": np.nan}
+                       "lle_benettin": np.nan, "lle_nolds": np.nan, **_no_statistics("diverged")}
         else:
             good.append(i)
     if good:
-        prepared = [prepare_point(**points[i]["params"]) for i in good]
-        starts = np.stack([np.asarray(sim.loc[points[i]["point_id"], "final_state"], dtype=float)
-                           for i in good])
-        scales = np.stack([attractor_scale(poincare_array(sim.loc[points[i]["point_id"], "poincare_state"]),
-                                           response_scale(pp), pp.omega) for i, pp in zip(good, prepared)])
+        prepared = {i: prepare_point(**points[i]["params"]) for i in good}
+        skip = {i: long_record_exemption(sim.loc[points[i]["point_id"]]) for i in good}
         # a fixed step count is an RK4 setting only when RK4 was asked for by name
         rk4_steps = nm.steps_per_period if nm.method == "rk4" else None
-        res = beam_lle(prepared, starts, scales, n_periods=lopt.n_periods, steps_per_period=rk4_steps,
-                       step_factor=lopt.step_factor, n_threads=threads)
-        for i, est in zip(good, res):
-            r = sim.loc[points[i]["point_id"]]
-            period = 2.0 * np.pi / r["omega"]
-            try:
-                lle_nolds = float(nolds_lle(poincare_array(r["poincare_tip"])[:, 0], sample_dt=period,
-                                            emb_dim=lopt.nolds_emb_dim).value)
-            except Exception as exc:  # nolds rejects short or constant series
-                log.info("nolds: point %s: %s", points[i]["point_id"], exc)
-                lle_nolds = np.nan
-            st = est.stefanski
-            recs[i] = {"lle_stefanski": st.value, "lle_stefanski_verdict": st.verdict,
-                       "lle_stefanski_lo": st.bracket[0], "lle_stefanski_hi": st.bracket[1],
-                       "lle_benettin": est.benettin.value, "lle_nolds": lle_nolds}
+        for subset, plan in (([i for i in good if skip[i] is None], lopt.block_plan()),
+                             ([i for i in good if skip[i] is not None], None)):
+            if not subset:
+                continue
+            pps = [prepared[i] for i in subset]
+            starts = np.stack([np.asarray(sim.loc[points[i]["point_id"], "final_state"], dtype=float)
+                               for i in subset])
+            records = [poincare_array(sim.loc[points[i]["point_id"], "poincare_state"]) for i in subset]
+            scales = np.stack([attractor_scale(x, response_scale(pp), pp.omega)
+                               for x, pp in zip(records, pps)])
+            res = beam_lle(pps, starts, scales, n_periods=lopt.n_periods, steps_per_period=rk4_steps,
+                           step_factor=lopt.step_factor, n_threads=threads, plan=plan)
+            for i, est in zip(subset, res):
+                recs[i] = _lyapunov_record(sim.loc[points[i]["point_id"]], est, skip[i], lopt,
+                                           points[i]["point_id"])
     return recs
+
+
+#: ``lle_verdict`` of a point whose dynamics over the record are linear
+LINEAR_VERDICT = "non-positive: linear (every element stuck over the record), lambda_1 <= 0"
+
+
+def long_record_exemption(sim_row: pd.Series) -> str | None:
+    """Why a point's label does not need the long Benettin record, or ``None`` when it does.
+
+    * the record is still a transient (:func:`analysis.regimes.transient_reason`): the label is
+      ``unsettled`` whatever the exponent;
+    * the record is periodic (:func:`analysis.regimes.classify` without an exponent finds a
+      period): the period test over the whole record excludes chaos, and the classifier's
+      rule 1 labels it periodic whatever the exponent;
+    * every Jenkins element stayed stuck over the record (``stick_fraction`` 1): the dynamics
+      there are linear with constant coefficients and a non-negative damping, so
+      ``lambda_1 <= 0`` exactly (:data:`LINEAR_VERDICT`).
+    """
+    from analysis.regimes import PERIODIC, classify, transient_reason
+
+    x = poincare_array(sim_row["poincare_state"])
+    if transient_reason(x) is not None:
+        return "not measured: the record is a transient (unsettled)"
+    if classify(x).label == PERIODIC:
+        return "not measured: periodic record (the period test excludes chaos)"
+    if float(sim_row["stick_fraction"]) >= 1.0:
+        return LINEAR_VERDICT
+    return None
+
+
+def _lyapunov_record(r: pd.Series, est, exemption: str | None, lopt, pid: str) -> dict:
+    """A point's Lyapunov record: Stefanski, window Benettin, nolds and the label's exponent
+    (the block statistics, or the exemption's bound)."""
+    from analysis.lyapunov.nolds_rosenstein import nolds_lle
+
+    period = 2.0 * np.pi / r["omega"]
+    try:
+        lle_nolds = float(nolds_lle(poincare_array(r["poincare_tip"])[:, 0], sample_dt=period,
+                                    emb_dim=lopt.nolds_emb_dim).value)
+    except Exception as exc:  # nolds rejects short or constant series
+        log.info("nolds: point %s: %s", pid, exc)
+        lle_nolds = np.nan
+    st = est.stefanski
+    out = {"lle_stefanski": st.value, "lle_stefanski_verdict": st.verdict,
+           "lle_stefanski_lo": st.bracket[0], "lle_stefanski_hi": st.bracket[1],
+           "lle_benettin": est.benettin.value, "lle_nolds": lle_nolds}
+    bs = est.statistics
+    if bs is not None:
+        return out | {"lle_mean": bs.mean, "lle_se": bs.se, "lle_lo": bs.lo, "lle_hi": bs.hi,
+                      "lle_periods": int(bs.n_periods), "lle_blocks": np.asarray(bs.blocks),
+                      "lle_verdict": bs.verdict}
+    stats = _no_statistics(exemption) | {"lle_mean": est.benettin.value,
+                                         "lle_periods": int(lopt.n_periods)}
+    if exemption == LINEAR_VERDICT:
+        # the bound, not the window value (a 25-period Benettin value on a torus reads the
+        # neutral directions' finite-time growth, up to +-0.1 per period)
+        stats |= {"lle_mean": 0.0, "lle_lo": -np.inf, "lle_hi": 0.0}
+    return out | stats
+
+
+def _no_statistics(verdict: str) -> dict:
+    return {"lle_mean": np.nan, "lle_se": np.nan, "lle_lo": np.nan, "lle_hi": np.nan,
+            "lle_periods": 0, "lle_blocks": np.zeros(0), "lle_verdict": verdict}
 
 
 def lyapunov_points(points: Sequence[dict], simulated: pd.DataFrame, numerics: Numerics | dict,
@@ -220,55 +314,59 @@ def lyapunov_points(points: Sequence[dict], simulated: pd.DataFrame, numerics: N
             groups.setdefault((p["params"].get("n_modes"), p["params"].get("n_quad")), []).append(i)
         recs: list = [None] * len(batch)
         for idx in groups.values():
-            for i, rec in zip(idx, _lyapunov_group([batch[i] for i in idx], sim, nm, threads)):
+            for i, rec in zip(idx, lyapunov_runs([batch[i] for i in idx], sim, nm, threads)):
                 recs[i] = rec
         return recs
 
     recs = _cached_stage(points, store, compute, batch_size=max(2 * threads, 25), stage="lyapunov")
-    return _table(points, recs)
+    return records_table(points, recs)
 
 
 # ----------------------------------------------------------------------------- classify
 def lle_resolution(numerics: Numerics | dict) -> float:
-    """Smallest ``lambda_1 T`` the Lyapunov stage resolves,
-    :func:`analysis.lyapunov.sync_rule.zero_tolerance` of ``n_periods`` (the windowed log-error
-    is resolved to O(1) over the measuring time; a neutral direction -- torus, undamped stuck
-    modes -- shows slow secular growth below this)."""
-    from analysis.lyapunov.sync_rule import zero_tolerance
-
-    return zero_tolerance(int(as_numerics(numerics).lyapunov.n_periods))
+    """The margin ``lambda_1 T`` (per forcing period) the exponent's confidence interval must
+    clear (``numerics.lyapunov.margin``): above it chaotic, at or below it regular, across it
+    undetermined (:func:`analysis.lyapunov.block_statistics.decide`)."""
+    return float(as_numerics(numerics).lyapunov.margin)
 
 
 def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame,
-                    lle_threshold: float = 0.1) -> pd.DataFrame:
+                    lle_threshold: float = 0.05) -> pd.DataFrame:
     """Stage 3: a label per point from its Poincare samples and its largest Lyapunov exponent.
 
     Non-results first: ``diverged`` (the integrator flagged the point), ``unsettled``
-    (:func:`analysis.regimes.is_settled` says the transient is not over); otherwise
+    (:func:`analysis.regimes.transient_reason` finds the record still a transient after the
+    adaptive transient's cap; the reason says which test); otherwise
     :func:`analysis.regimes.classify` on the stroboscopic samples of all generalised
-    coordinates and velocities, with ``lambda_1`` per forcing period from the Stefanski estimate
-    (when it reached a value; else the other indicators decide alone); ``lambda_1 T`` above
-    ``lle_threshold`` (:func:`lle_resolution`) counts as positive.
+    coordinates and velocities, with ``lambda_1 T`` and its confidence interval from the block
+    statistics of the long Benettin record (``lle_mean``, ``lle_lo``, ``lle_hi``); the interval
+    is compared with ``lle_threshold`` (:func:`lle_resolution`), and a point whose interval
+    straddles it, or whose exponent the Poincare data contradict, is ``undetermined``.
+    Where the statistics are missing (diverged copies) the other indicators decide alone.
     """
-    from analysis.regimes import DIVERGED, UNSETTLED, classify, is_settled
+    from analysis.regimes import DIVERGED, UNSETTLED, classify, transient_reason
 
     lle = lyapunov.set_index("point_id")
     rows = []
     for _, sim in simulated.iterrows():
         pid = sim["point_id"]
         period_t = 2.0 * np.pi / sim["omega"]
-        lam = float(lle.loc[pid, "lle_stefanski"]) if pid in lle.index else np.nan
+        have = pid in lle.index
+        lam, lo, hi = ((float(lle.loc[pid, k]) * period_t for k in ("lle_mean", "lle_lo", "lle_hi"))
+                       if have else (np.nan, np.nan, np.nan))
         row = {"point_id": pid, "label": None, "period": None, "reason": "", "K": np.nan,
                "spectral_growth": np.nan, "n_clusters": np.nan, "settled": False}
         x = poincare_array(sim["poincare_state"])
+        why_transient = None if (sim["diverged"] or not np.all(np.isfinite(x))) else transient_reason(x)
         if sim["diverged"] or not np.all(np.isfinite(x)):
             row.update(label=DIVERGED, reason="integration diverged")
-        elif not is_settled(x):
-            row.update(label=UNSETTLED, reason="transient not over: first and second half of the "
-                       "Poincare record differ (is_settled)")
+        elif why_transient is not None:
+            row.update(label=UNSETTLED, reason=f"transient not over after {int(sim['n_transient_used'])} "
+                       f"periods: {why_transient}")
         else:
-            res = classify(x, lle_per_period=(lam * period_t) if np.isfinite(lam) else None,
-                           lle_threshold=lle_threshold)
+            known = not (np.isnan(lam) or np.isnan(lo) or np.isnan(hi))
+            res = classify(x, lle_per_period=lam if known else None,
+                           lle_interval=(lo, hi) if known else None, lle_threshold=lle_threshold)
             ind = dict(res.indicators)
             row.update(label=res.label, period=res.period, reason=res.reason, settled=True,
                        K=ind.get("K", np.nan), spectral_growth=ind.get("spectral_growth", np.nan),
@@ -297,13 +395,16 @@ def portrait_case(row: pd.Series, axes: list[str], numerics: Numerics | dict,
     spp = nm.steps_per_period
     if spp is not None:
         spp = max(samples_per_period, int(np.ceil(spp / samples_per_period) * samples_per_period))
-    r = simulate(n_transient=nm.n_transient, n_record=nm.n_record,
+    # the adaptive transient's length (one run instead of the chained ones: the same trajectory
+    # up to round-off, which a chaotic record amplifies: the same attractor, not the same samples)
+    n_tr = int(row["n_transient_used"]) if pd.notna(row.get("n_transient_used")) else nm.n_transient
+    r = simulate(n_transient=n_tr, n_record=nm.n_record,
                  method=integrator(nm.method, params), steps_per_period=spp, step_factor=nm.step_factor,
                  dense_per_period=samples_per_period, **params)
     t, w = r.dense_t, r.dense[:, 0]
     w_dot = np.gradient(w, t)
     tail = slice(len(t) - n_show * samples_per_period - 1, len(t))
-    start = nm.n_transient * samples_per_period
+    start = n_tr * samples_per_period
     pidx = np.arange(start, len(t), samples_per_period)
     where = ", ".join(f"{a}={row[a]:g}" for a in axes)
     period = f" (period {int(row['period'])})" if pd.notna(row["period"]) else ""

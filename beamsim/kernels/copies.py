@@ -214,10 +214,12 @@ def _measure(p, c0, step, rows, spec, band, n_per, S, log_err):
 
 
 @njit(cache=True)
-def copies_task(p, c0, c1, pt, sch, x_start, spec, band, log_err):
+def copies_task(p, c0, c1, pt, sch, x_start, spec, band, log_err, final):
     """Integrate point ``p``'s drive with its copies ``c0 .. c1 - 1`` for ``sch.n_periods``
     periods, writing ``ln eps`` at the period boundaries into ``log_err[p, c0:c1]`` (``nan``:
-    the drive diverged; ``+inf``: the copy did)."""
+    the drive diverged; ``+inf``: the copy did) and the end states ``(q, v, z, mode)`` of the
+    drive (``final[p, 0]``, written by the task with ``c0 == 0``) and of the copies
+    (``final[p, 1 + c0:1 + c1]``), from which a later call continues the run exactly."""
     n = pt.Aq.shape[0]
     nq = pt.S.shape[0]
     rows = _new_rows(x_start, spec, c0, c1, n, nq)
@@ -242,10 +244,20 @@ def copies_task(p, c0, c1, pt, sch, x_start, spec, band, log_err):
                     log_err[p, c0 + m, k] = np.nan
             return
         _measure(p, c0, step, rows, spec, band, n_per, pt.S, log_err)
+    for r in range(c1 - c0 + 1):
+        if r == 0 and c0 != 0:
+            continue
+        dst = final[p, 0] if r == 0 else final[p, c0 + r]
+        for i in range(n):
+            dst[i] = rows.Q[r, i]
+            dst[n + i] = rows.V[r, i]
+        for j in range(nq):
+            dst[2 * n + j] = rows.Z[r, j]
+            dst[2 * n + nq + j] = rows.MODE[r, j]
 
 
 @njit(cache=True, parallel=True)
-def run_tasks(tasks, stk, sch, x_start, spec, band, log_err):
+def run_tasks(tasks, stk, sch, x_start, spec, band, log_err, final):
     """Every task ``(point, first copy, end copy)`` of ``tasks`` (an ``(T, 3)`` int array) in
     parallel; ``stk``, ``sch`` and ``spec`` stacked over the points."""
     for k in prange(tasks.shape[0]):
@@ -253,4 +265,4 @@ def run_tasks(tasks, stk, sch, x_start, spec, band, log_err):
         copies_task(p, tasks[k, 1], tasks[k, 2], point_at(stk, p, True),
                     CopySchedule(sch.h[p], sch.n_per[p], sch.n_periods, sch.div_limit[p]),
                     x_start[p], CopySpec(spec.offsets[p], spec.d[p], spec.renorm_period[p],
-                                         spec.inv_scale[p]), band, log_err)
+                                         spec.inv_scale[p]), band, log_err, final)

@@ -98,7 +98,8 @@ def test_poincare_transient_coloured_by_period(drawn, tmp_path):
 
 
 def test_load_sweeps_diagram_over_lle_curve(drawn, tmp_path):
-    pts = [{"x": x, "label": "periodic", "poincare_w": np.full(5, x), "lle_T": -0.1, "lle_benettin_T": -0.05}
+    pts = [{"x": x, "label": "periodic", "poincare_w": np.full(5, x), "lle_T": -0.1,
+            "lle_lo_T": -0.15, "lle_hi_T": -0.05, "lle_stefanski_T": -0.05}
            for x in (1.0, 2.0, 4.0)]
     fig.plot_load_sweeps([{"title": "a", "xlabel": "x", "log": True, "points": pts}] * 2, tmp_path / "s.png",
                          resolution=0.2)

@@ -200,3 +200,33 @@ def test_stefanski_agrees_with_benettin_at_a_two_mode_chaotic_point():
     assert est.stefanski.chaotic and est.stefanski.verdict.startswith("chaotic"), est.stefanski.verdict
     assert be > 2 * 5.0 / 100, be  # chaotic by Benettin too, well above the resolution
     assert abs(st / be - 1.0) <= 0.10, (st, be)
+
+
+def test_continued_record_equals_one_long_run(settled):
+    """The long Benettin record is run in pieces (analysis.lyapunov.beam._long_records): a run
+    continued from the end states of the first piece gives the same record as one long run
+    (the drive bitwise; the renormalised copy to round-off)."""
+    pts, res, prepared, scales = settled
+    pp = prepared[0]
+    n, nq = pp.model.n, pp.model.n_quad
+    off = _offsets(pp, scales[0], (1e-6,))
+    kw = dict(e0=1e-6, renorm_period=np.ones((1, 1), np.bool_))
+    whole, fin = run_copies([pp], res[0].final_state[None], off, np.zeros((1, 1)), 1 / scales[:1],
+                            n_periods=6, return_final=True, **kw)
+    first, f1 = run_copies([pp], res[0].final_state[None], off, np.zeros((1, 1)), 1 / scales[:1],
+                           n_periods=3, return_final=True, **kw)
+    cont = 2 * n + nq
+    second, f2 = run_copies([pp], f1[:, 0], f1[:, 1:2, :cont] - f1[:, 0:1, :cont], np.zeros((1, 1)),
+                            1 / scales[:1], n_periods=3, return_final=True, **kw)
+    assert np.array_equal(f2[0, 0], fin[0, 0])  # the drive
+    joined = np.concatenate([first[0, 0], first[0, 0, -1] + second[0, 0, 1:] - second[0, 0, 0]])
+    assert np.allclose(joined, whole[0, 0], rtol=0, atol=1e-6)
+    # and beam_lle's statistics follow the plan: an undetermined point is continued
+    from analysis.lyapunov.block_statistics import BlockPlan
+
+    plan = BlockPlan(block=2, burn_in=1, min_blocks=2, max_blocks=3, margin=0.05)
+    est = beam_lle([pp], res[0].final_state[None], scales[:1], n_periods=3, plan=plan)[0]
+    st = est.statistics
+    assert st.n_periods in (4, 6) and st.blocks.size == st.n_periods // 2
+    first_verdict = plan.statistics(whole[0, 0][:6], est.period).verdict
+    assert (st.n_periods == 6) == (first_verdict == "undetermined")

@@ -25,7 +25,7 @@ def test_defaults_are_the_shipped_config():
 def test_point_id_is_the_same_for_a_default_left_out_or_written_out():
     params = {"n_modes": 1, "Omega": 2.0}
     full = Numerics().result_dict()
-    partial = {"method": "auto", "n_transient": 200, "n_record": 128}
+    partial = {"method": "auto", "n_transient": 200, "n_record": 256}
     assert point_id(params, partial) == point_id(params, full) == point_id(params, Numerics())
     assert point_id(params, dict(partial, step_factor=0.5)) != point_id(params, full)
     assert point_id(params, dict(partial, lyapunov={"n_periods": 50})) != point_id(params, full)
@@ -43,3 +43,20 @@ def test_result_dict_leaves_out_chunk_size_and_an_unset_step_count():
 def test_unknown_settings_are_named(bad, key):
     with pytest.raises(ValueError, match=key):
         Numerics.from_dict(bad)
+
+
+@pytest.mark.parametrize("bad, message", [
+    ({"n_transient": 300, "n_transient_max": 200},
+     "n_transient_max = 200 must be >= numerics.n_transient = 300"),
+    ({"lyapunov": {"min_blocks": 5, "max_blocks": 4}}, "min_blocks = 5, max_blocks = 4"),
+])
+def test_settings_that_contradict_each_other_are_named(bad, message):
+    with pytest.raises(ValueError, match=message):
+        Numerics.from_dict(bad)
+
+
+def test_block_plan_follows_the_settings():
+    plan = Numerics.from_dict({"lyapunov": {"block_periods": 10, "burn_in": 5, "min_blocks": 2,
+                                            "max_blocks": 6, "margin": 0.1}}).lyapunov.block_plan()
+    got = (plan.block, plan.burn_in, plan.first_periods, plan.max_periods, plan.margin)
+    assert got == (10, 5, 25, 65, 0.1)

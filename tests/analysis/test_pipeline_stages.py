@@ -92,7 +92,8 @@ GOOD = {"n_modes": 1, "Omega": 2.5, "f0_rel": 2.0, "mu_s": 0.45, "mu_k": 0.3, "i
 # the interface dashpot's rate, 2 zeta_t omega_max = 20 omega_max, is far outside RK4's stability
 # interval at the pipeline's step h = 1 / omega_max: this (valid) point diverges with RK4
 UNSTABLE = dict(GOOD, interface_damping=10.0)
-RK4 = {"method": "rk4", "n_transient": 3, "n_record": 128, "step_factor": 1.0, "lyapunov": {"n_periods": 10}}
+RK4 = {"method": "rk4", "n_transient": 3, "n_record": 128, "n_transient_max": 3, "step_factor": 1.0,
+       "lyapunov": {"n_periods": 10, "block_periods": 3, "burn_in": 1, "min_blocks": 2, "max_blocks": 3}}
 
 
 def test_a_diverging_point_is_recorded_and_leaves_its_batch_alone(tmp_path):

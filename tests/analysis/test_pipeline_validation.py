@@ -97,3 +97,17 @@ def test_unknown_key_gets_a_did_you_mean():
     cfg["numerics"]["n_trasient"] = 10
     with pytest.raises(WorkflowError, match=r"did you mean 'n_transient'\?"):
         validate_config(cfg, SCHEMA, "config")
+
+
+def test_contradicting_numerics_are_one_line_before_any_point(tmp_path):
+    """A cap of the adaptive transient below the transient itself: ``invalid config:`` naming
+    both keys, from the plan (before any job)."""
+    from analysis.pipeline.plan import build_plan
+
+    cfg = _config()
+    cfg["numerics"]["n_transient_max"] = 100
+    cfg["grid_file"] = str(ROOT / "config" / "grid.yaml")
+    with pytest.raises(WorkflowError) as err:
+        build_plan(cfg, SCHEMA.parent)
+    msg = str(err.value)
+    assert msg.startswith("invalid config:") and "n_transient_max = 100" in msg and "\n" not in msg, msg

@@ -17,6 +17,10 @@ GRID = {"grids": {"tiny": {"axes": {"f0_rel": [0.5, 3.0]}, "fixed": {"Omega": 2.
                            "mark": [{"f0_rel": 3.0}]}}}
 
 
+#: block statistics of the Lyapunov stage within the shipped 25-period Stefanski window
+SHORT_LYAPUNOV = {"block_periods": 5, "burn_in": 5, "min_blocks": 2, "max_blocks": 4}
+
+
 def snakemake_command(workdir: Path, *args: str, cores: int = 2) -> list[str]:
     return [sys.executable, "-m", "snakemake", "-s", str(ROOT / "Snakefile"), "-d", str(workdir),
             f"-c{cores}", *args, "--configfile", str(workdir / "config.yaml")]
@@ -32,10 +36,15 @@ def snakemake(workdir: Path, *args: str, cores: int = 2) -> subprocess.Completed
 
 
 def setup_workdir(path: Path, grid: dict = GRID, **numerics) -> Path:
-    """``path`` with ``config.yaml`` (the shipped config, short runs, one point per chunk, and
+    """``path`` with ``config.yaml`` (the shipped config, short runs -- a fixed transient, a
+    long Benettin record no longer than the Stefanski window --, one point per chunk, and
     ``numerics`` overrides) and ``grid.yaml``."""
     cfg = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    cfg["numerics"]["lyapunov"].update(SHORT_LYAPUNOV)
     cfg["numerics"].update({"n_transient": 4, "n_record": 128, "chunk_size": 1} | numerics)
+    cfg["numerics"].setdefault("n_transient_max", cfg["numerics"]["n_transient"])
+    if "n_transient_max" not in numerics:
+        cfg["numerics"]["n_transient_max"] = cfg["numerics"]["n_transient"]
     cfg["grid_file"] = str(path / "grid.yaml")
     path.mkdir(parents=True, exist_ok=True)
     (path / "config.yaml").write_text(yaml.safe_dump(cfg))

@@ -45,8 +45,10 @@ def _one_line(res: subprocess.CompletedProcess, start: str) -> str:
     # results/ empty: the preflight check (analysis.pipeline.preflight) refuses the run
     (False, "cannot run:", r"not writable \(Read-only file system\)"),
     # a table there to rewrite (a point added): Snakemake's own check of the outputs refuses first
-    # (it names the first of the jobs to rerun it meets: the table or one of its figures)
-    (True, "Write-protected output files", r"for rule (regime_table|regime_figures|portraits):"),
+    # (it names the first of the jobs to rerun it meets: a chunk job whose chunk gained the point,
+    # the table or one of its figures)
+    (True, "Write-protected output files",
+     r"for rule (simulate_chunk|lyapunov_chunk|classify_chunk|regime_table|regime_figures|portraits):"),
 ])
 def test_read_only_results_stop_before_any_job_and_keep_what_is_there(tmp_path, populated, start, words):
     work = setup_workdir(tmp_path / "ro")

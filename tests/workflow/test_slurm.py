@@ -23,6 +23,7 @@ import pyarrow.parquet as pq
 import pytest
 import yaml
 from slurm_cluster import LocalSlurm, can_run, install
+from workflow_run import SHORT_LYAPUNOV
 
 ROOT = Path(__file__).resolve().parents[2]
 VENV_BIN = str(Path(sys.executable).parent)
@@ -53,7 +54,8 @@ CASES = [
     # rules are plain local jobs, and each level costs a SLURM status-poll round of ~30 s)
     Case("results/regimes/tiny.parquet", ("results/regimes/*.parquet",),
          overrides={"grid_file": str(ROOT / "tests" / "workflow" / "data" / "grid_tiny.yaml"),
-                    "numerics": {"n_transient": 4, "n_record": 128, "chunk_size": 1}}),
+                    "numerics": {"n_transient": 4, "n_record": 128, "n_transient_max": 4, "chunk_size": 1,
+                                 "lyapunov": SHORT_LYAPUNOV}}),
 ]
 
 

@@ -1,0 +1,102 @@
+r"""Slow transients in a Poincare record: convergence towards a periodic orbit, and drift.
+
+:func:`analysis.regimes.is_settled` compares the two halves of a record; a transient slower
+than the record passes it, and the classifier then reads the remnant as structure: a slowly
+decaying period-5 remnant around a fixed point as "period 5", a converging spiral (a focus of
+the stroboscopic map, rotating by ``2 pi / 18`` per period) as "period 18", a slow monotone
+drift superposed on an oscillation as "quasi-periodic".  The two tests here look for the
+signature of each directly.
+
+**Convergence** (:func:`converging_period`).  For a lag ``m`` the scaled distance
+``d_i = max_j |x_{i+m, j} - x_{i, j}| / S_j`` is zero on a period-``m`` orbit and stationary
+on a settled torus or chaotic attractor; while a trajectory converges to a period-``m`` orbit
+(spiral or not) it decays geometrically.  The record is cut into ``n_parts`` consecutive
+parts; the lag is *converging* when the medians of ``ln d_i`` over the parts decrease
+strictly from part to part and the first exceeds the last by ``ln(min_decay)``.  Lags whose
+first part is already at round-off (``d < 1e-9``) are skipped.  The smallest converging lag
+``<= m_max`` is returned.  A settled orbit of period ``m`` has ``d`` at round-off (no trend)
+for lag ``m`` and a stationary ``d`` for other lags; a settled torus or chaotic record has
+part medians that fluctuate without a monotone fall (the median of many values moves little).
+
+**Drift** (:func:`drifting_component`).  The means of ``n_blocks`` consecutive blocks of a
+component follow a line whose slope is significant against their scatter (t-test) and whose
+change over the record exceeds ``min_drift S_j``.  A torus whose slowest rotation is longer
+than the record looks like that too;
+such a record does not show what the attractor is either, so calling it unsettled (and running
+longer) is the honest answer.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["converging_period", "drifting_component"]
+
+#: a scaled lag distance below this is round-off (the lag is a period already)
+ROUNDOFF_DISTANCE = 1e-9
+
+
+def _strictly_monotone(v: np.ndarray) -> int:
+    """+1 / -1 if ``v`` increases / decreases strictly, else 0."""
+    d = np.diff(v)
+    if np.all(d > 0):
+        return 1
+    if np.all(d < 0):
+        return -1
+    return 0
+
+
+def converging_period(x: np.ndarray, scales: np.ndarray, *, m_max: int = 32, n_parts: int = 8,
+                      min_decay: float = 1.25, min_reps: int = 8) -> tuple[int, float] | None:
+    """Smallest lag ``m <= m_max`` towards whose period the record converges (module docstring)
+    and the decay factor of the lag distance from the first part to the last, or ``None``.
+
+    x : ``(N, d)`` samples, one row per period; scales : ``(d,)`` positive component scales.
+    n_parts, min_decay : parts of the record and the smallest first-to-last decay factor.
+    min_reps : lags with fewer than ``min_reps * n_parts`` distances are not tested.
+    """
+    x = np.asarray(x, dtype=float)
+    n = x.shape[0]
+    for m in range(1, int(m_max) + 1):
+        if n - m < min_reps * n_parts:
+            break
+        d = np.max(np.abs(x[m:] - x[:-m]) / scales, axis=1)
+        parts = np.array_split(np.log(np.maximum(d, 1e-300)), n_parts)
+        med = np.array([np.median(p) for p in parts])
+        if med[0] < np.log(ROUNDOFF_DISTANCE):
+            continue
+        if _strictly_monotone(med) < 0 and med[0] - med[-1] > np.log(min_decay):
+            return m, float(np.exp(med[0] - med[-1]))
+    return None
+
+
+def drifting_component(x: np.ndarray, scales: np.ndarray, *, n_blocks: int = 16,
+                       min_drift: float = 0.05, alpha: float = 0.01) -> tuple[int, float] | None:
+    """First component with a significant linear drift, and that drift (least-squares slope
+    of the block means times the record length, over the component's scale), or ``None``.
+
+    The record is cut into ``n_blocks`` blocks; a component drifts when ``|D_j| > min_drift``
+    and the slope of its block means is significant against their scatter about the line
+    (two-sided t-test, level ``alpha / d`` per component, ``n_blocks - 2`` degrees of
+    freedom): a chaotic record's block means wander, a torus' or periodic orbit's lie still,
+    so a trend stands out there and is discounted where the record is noisy."""
+    from scipy import stats
+
+    x = np.asarray(x, dtype=float)
+    n, d = x.shape
+    nb = int(n_blocks)
+    size = n // nb
+    if size < 2 or nb < 4:
+        return None
+    means = x[n - nb * size:].reshape(nb, size, d).mean(axis=1) / scales
+    t = (np.arange(nb) + 0.5) * size  # block centres, in samples
+    tc = t - t.mean()
+    slope = tc @ (means - means.mean(axis=0)) / np.sum(tc ** 2)
+    drift = slope * n
+    resid = means - means.mean(axis=0) - np.outer(tc, slope)
+    se = np.sqrt(np.sum(resid ** 2, axis=0) / (nb - 2) / np.sum(tc ** 2))
+    crit = float(stats.t.ppf(1.0 - alpha / (2.0 * d), nb - 2))
+    for j in range(d):
+        if abs(drift[j]) > min_drift and abs(slope[j]) > crit * se[j]:
+            return j, float(drift[j])
+    return None

@@ -1,0 +1,96 @@
+"""lambda_1 as a statistic (analysis.lyapunov.block_statistics) and the classifier's use of its
+confidence interval (analysis.regimes.classify with ``lle_interval``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from test_regimes import henon, logistic, torus2
+
+from analysis.lyapunov.block_statistics import (
+    DIVERGED,
+    NON_POSITIVE,
+    POSITIVE,
+    UNDETERMINED,
+    BlockPlan,
+    block_statistics,
+    decide,
+)
+from analysis.regimes import CHAOTIC, PERIODIC, QUASI_PERIODIC, classify
+from analysis.regimes import UNDETERMINED as LABEL_UNDETERMINED
+
+T = 2.0 * np.pi
+
+
+def record(lam_T: float, n: int, noise: float, seed: int) -> np.ndarray:
+    """``ln eps`` at period ends of a separation growing at ``lam_T`` per period with
+    independent per-period fluctuations of size ``noise`` (a random walk around the line)."""
+    steps = lam_T + noise * np.random.default_rng(seed).standard_normal(n)
+    return np.concatenate([[np.log(1e-6)], np.log(1e-6) + np.cumsum(steps)])
+
+
+def test_mean_is_the_rate_over_the_measured_stretch() -> None:
+    le = record(0.3, 225, 0.5, 1)
+    st = block_statistics(le, T)
+    assert st.n_periods == 200 and st.blocks.size == 8
+    assert st.mean * T == pytest.approx((le[225] - le[25]) / 200, rel=1e-12)
+    m, se, lo, hi = st.per_period
+    assert lo < m < hi and se > 0
+
+
+def test_interval_coverage() -> None:
+    """The 95 % interval holds the true rate in about 95 % of independent records."""
+    hits = 0
+    for seed in range(400):
+        _, _, lo, hi = block_statistics(record(0.15, 225, 0.6, seed), T).per_period
+        hits += lo <= 0.15 <= hi
+    assert 0.91 <= hits / 400 <= 0.985, hits
+
+
+def test_verdicts() -> None:
+    assert block_statistics(record(0.3, 225, 0.3, 2), T).verdict == POSITIVE
+    assert block_statistics(record(-0.1, 225, 0.3, 2), T).verdict == NON_POSITIVE
+    # weak chaos inside the noise of a short record: not decided
+    assert block_statistics(record(0.06, 100, 1.0, 3), T).verdict == UNDETERMINED
+    # a neutral direction growing linearly (shear): zero exponent, not chaos
+    t = np.arange(226.0)
+    assert block_statistics(np.log(1e-6 * (1.0 + t)), T).verdict == NON_POSITIVE
+    bad = record(0.3, 225, 0.3, 2)
+    bad[100] = np.nan
+    assert block_statistics(bad, T).verdict == DIVERGED
+    coincide = record(-0.1, 225, 0.3, 2)
+    coincide[150:] = -np.inf
+    st = block_statistics(coincide, T)
+    assert st.verdict == NON_POSITIVE and st.mean == -np.inf
+
+
+def test_decide_and_plan() -> None:
+    assert decide(0.06, 0.2, 0.05) == POSITIVE
+    assert decide(-0.1, 0.05, 0.05) == NON_POSITIVE
+    assert decide(0.0, 0.1, 0.05) == UNDETERMINED
+    plan = BlockPlan()
+    assert plan.first_periods == 100 and plan.max_periods == 225
+    with pytest.raises(ValueError, match="BlockPlan"):
+        BlockPlan(min_blocks=5, max_blocks=3)
+    with pytest.raises(ValueError, match="need burn_in"):
+        block_statistics(np.zeros(40), T)
+
+
+def test_classify_with_an_interval() -> None:
+    chaos = henon(300)
+    assert classify(chaos, 0.4, lle_interval=(0.3, 0.5), lle_threshold=0.05).label == CHAOTIC
+    res = classify(chaos, 0.1, lle_interval=(0.0, 0.2), lle_threshold=0.05)
+    assert res.label == LABEL_UNDETERMINED and "straddles" in res.reason
+    # the exponent contradicts the data: undetermined, the conflict named
+    res = classify(torus2(300), 0.4, lle_interval=(0.3, 0.5), lle_threshold=0.05)
+    assert res.label == LABEL_UNDETERMINED and "CONFLICT" in res.reason
+    res = classify(logistic(4.0, 300, 100), -0.3, lle_interval=(-0.4, -0.2), lle_threshold=0.05)
+    assert res.label == LABEL_UNDETERMINED and "CONFLICT" in res.reason
+    assert classify(torus2(300), 0.0, lle_interval=(-0.02, 0.02), lle_threshold=0.05).label == QUASI_PERIODIC
+    # a period found stands, whatever the interval
+    p3 = logistic(3.83, 300)
+    assert classify(p3, 0.0, lle_interval=(-0.1, 0.2), lle_threshold=0.05).label == PERIODIC
+    with pytest.raises(ValueError, match="lle_interval"):
+        classify(chaos, 0.1, lle_interval=(0.2, 0.0))
+    with pytest.raises(ValueError, match="lle_interval"):
+        classify(chaos, None, lle_interval=(0.0, 0.2))
