@@ -536,7 +536,8 @@ def _periodic(ev: _Evidence, lle: float | None, th: Thresholds) -> tuple[int, st
     else:
         return None
     if lle is not None and lle > th.lle_threshold:
-        why += f"; CONFLICT: lambda_1={lle:.3g}/period > {th.lle_threshold:g} ignored"
+        why += (f"; CONFLICT: lambda_1 (with an interval: its lower bound) = {lle:.3g}/period > "
+                f"{th.lle_threshold:g} ignored")
     return m, f"period {m}: {why}"
 
 
