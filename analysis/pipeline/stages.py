@@ -209,7 +209,7 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
             good.append(i)
     if good:
         prepared = {i: prepare_point(**points[i]["params"]) for i in good}
-        skip = {i: long_record_exemption(sim.loc[points[i]["point_id"]]) for i in good}
+        skip = {i: long_record_exemption(sim.loc[points[i]["point_id"]], points[i]["params"]) for i in good}
         # a fixed step count is an RK4 setting only when RK4 was asked for by name
         rk4_steps = nm.steps_per_period if nm.method == "rk4" else None
         for subset, plan in (([i for i in good if skip[i] is None], lopt.block_plan()),
@@ -234,7 +234,7 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
 LINEAR_VERDICT = "non-positive: linear (every element stuck over the record), lambda_1 <= 0"
 
 
-def long_record_exemption(sim_row: pd.Series) -> str | None:
+def long_record_exemption(sim_row: pd.Series, params: dict) -> str | None:
     """Why a point's label does not need the long Benettin record, or ``None`` when it does.
 
     * the record is still a transient (:func:`analysis.regimes.transient_reason`): the label is
@@ -242,9 +242,10 @@ def long_record_exemption(sim_row: pd.Series) -> str | None:
     * the record is periodic (:func:`analysis.regimes.classify` without an exponent finds a
       period): the period test over the whole record excludes chaos, and the classifier's
       rule 1 labels it periodic whatever the exponent;
-    * every Jenkins element stayed stuck over the record (``stick_fraction`` 1): the dynamics
-      there are linear with constant coefficients and a non-negative damping, so
-      ``lambda_1 <= 0`` exactly (:data:`LINEAR_VERDICT`).
+    * the stick-slip law and every Jenkins element stuck over the record (``stick_fraction``
+      1): the dynamics there are linear with constant coefficients and a non-negative damping,
+      so ``lambda_1 <= 0`` exactly (:data:`LINEAR_VERDICT`).  Not for the regularised laws,
+      whose "stuck" (``|v| < eps_v``) is still the nonlinear traction law.
     """
     from analysis.regimes import PERIODIC, classify, transient_reason
 
@@ -253,7 +254,7 @@ def long_record_exemption(sim_row: pd.Series) -> str | None:
         return "not measured: the record is a transient (unsettled)"
     if classify(x).label == PERIODIC:
         return "not measured: periodic record (the period test excludes chaos)"
-    if float(sim_row["stick_fraction"]) >= 1.0:
+    if params.get("law", "stick-slip") == "stick-slip" and float(sim_row["stick_fraction"]) >= 1.0:
         return LINEAR_VERDICT
     return None
 

@@ -98,3 +98,21 @@ def test_a_decay_below_the_period_tolerance_is_settled() -> None:
     x = remnant(1e-5, 2.0)
     assert transient_reason(x) is None
     assert classify(x).period == 1
+
+
+def test_which_points_need_the_long_record():
+    """analysis.pipeline.stages.long_record_exemption: transients, periodic records and stuck
+    stick-slip records are exempt (the label does not depend on the exponent, or lambda_1 <= 0
+    exactly); a stuck record of a regularised law and a non-periodic slipping one are not."""
+    from analysis.pipeline.stages import LINEAR_VERDICT, long_record_exemption
+
+    def row(x, stick):
+        return pd.Series({"poincare_state": x.tolist(), "stick_fraction": stick})
+
+    torus = torus2(N)
+    assert "the record is a transient" in long_record_exemption(row(SLOW["spiral-2.5"], 0.5), {})
+    periodic = np.random.default_rng(0).normal(size=(3, 2))[np.arange(N) % 3]
+    assert "periodic record" in long_record_exemption(row(periodic, 0.5), {})
+    assert long_record_exemption(row(torus, 1.0), {"law": "stick-slip"}) == LINEAR_VERDICT
+    assert long_record_exemption(row(torus, 1.0), {"law": "full-slip"}) is None
+    assert long_record_exemption(row(torus, 0.9), {}) is None
