@@ -144,9 +144,11 @@ def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: in
              resolution: float = 0.0) -> None:
     """Largest Lyapunov exponent per forcing period, map (2-D grid) or curve (1-D grid).
 
-    2-D: two panels on one colour scale, the Stefanski estimate (the classifier's input) and
-    the Benettin cross-check, so that points where they disagree (Stefanski's threshold is an
-    upper bound at grazing breakaways, docs/lyapunov.md) are seen at a glance.  The scale is
+    2-D: two panels on one colour scale, the label's exponent (``lle_mean``: the block mean of
+    the long Benettin record, undetermined points marked x) and the Stefanski cross-check, so
+    that points where they disagree (Stefanski's threshold is an upper bound at grazing
+    breakaways, docs/lyapunov.md) are seen at a glance.  1-D: the block mean with its interval
+    as a band, Stefanski and nolds.  The scale is
     symmetric about 0 and covers the :data:`LLE_RANGE_QUANTILE` quantile of ``|lambda_1 T|``
     (a few outliers would otherwise wash out the map), at least ``resolution`` (the
     ``lambda_1 T`` below which the estimators call the exponent zero,
