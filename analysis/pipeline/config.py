@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any, Mapping
 
+from analysis.lyapunov.block_statistics import BlockPlan
 from beamsim.simulate import METHODS as SIMULATOR_METHODS
 
 __all__ = ["LyapunovNumerics", "Numerics", "as_numerics"]
@@ -41,17 +42,16 @@ class LyapunovNumerics:
     n_periods: int = 25
     step_factor: float = 0.5
     nolds_emb_dim: int = 6
-    block_periods: int = 25
-    burn_in: int = 25
-    min_blocks: int = 3
-    max_blocks: int = 8
-    confidence: float = 0.95
-    margin: float = 0.05
+    # the long record's defaults are BlockPlan's (one place)
+    block_periods: int = BlockPlan.block
+    burn_in: int = BlockPlan.burn_in
+    min_blocks: int = BlockPlan.min_blocks
+    max_blocks: int = BlockPlan.max_blocks
+    confidence: float = BlockPlan.confidence
+    margin: float = BlockPlan.margin
 
-    def block_plan(self):
+    def block_plan(self) -> BlockPlan:
         """The :class:`analysis.lyapunov.block_statistics.BlockPlan` of these settings."""
-        from analysis.lyapunov.block_statistics import BlockPlan
-
         return BlockPlan(block=self.block_periods, burn_in=self.burn_in, min_blocks=self.min_blocks,
                          max_blocks=self.max_blocks, confidence=self.confidence, margin=self.margin)
 
