@@ -82,8 +82,19 @@ def _is_log(grid: dict, name: str) -> bool:
     return isinstance(spec, dict) and spec.get("scale") == "log"
 
 
-def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: int = 130) -> None:
-    """2-D grid: categorical regime map; 1-D grid: bifurcation diagram coloured by regime."""
+def _title(what: str, grid_name: str, table: pd.DataFrame, axes: list[str], evidence: str | None) -> str:
+    """Figure title: what, the grid's fixed parameters, and the map's convergence evidence
+    (:func:`analysis.pipeline.convergence.summary_line`) when given."""
+    import textwrap
+
+    out = what + "\n" + _fixed_title(grid_name, table, axes)
+    return out + ("\n" + textwrap.fill(evidence, width=90) if evidence else "")
+
+
+def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: int = 130,
+                 evidence: str | None = None) -> None:
+    """2-D grid: categorical regime map; 1-D grid: bifurcation diagram coloured by regime.
+    ``evidence``: a line on the labels' convergence for the title."""
     axes = list(grid["axes"])
     keys = table.apply(_label_key, axis=1)
     present = [k for k in LABEL_COLOURS if (keys == k).any()]
@@ -120,7 +131,7 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
         ax.set_xlabel(_axis_label(xa))
         ax.set_ylabel(r"tip radial displacement $w(\beta)/R$ at $t = kT$ (Poincare samples)")
         ax.legend(handles=handles, fontsize=8, title="regime")
-    ax.set_title("Regimes\n" + _fixed_title(grid_name, table, axes), fontsize=9)
+    ax.set_title(_title("Regimes", grid_name, table, axes, evidence), fontsize=9)
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
 
@@ -141,7 +152,7 @@ def lle_colour_limit(values: np.ndarray, resolution: float = 0.0) -> float:
 
 
 def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: int = 130,
-             resolution: float = 0.0) -> None:
+             resolution: float = 0.0, evidence: str | None = None) -> None:
     """Largest Lyapunov exponent per forcing period, map (2-D grid) or curve (1-D grid).
 
     2-D: two panels on one colour scale, the label's exponent (``lle_mean``: the block mean of
@@ -196,7 +207,7 @@ def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: in
         axs[0, 0].text(0.0, -0.16, "blank: not determined (diverged, or no synchronisation up to "
                        "the RK4 limit); numbers: values beyond the colour range",
                        transform=axs[0, 0].transAxes, fontsize=7)
-        fig.suptitle("Largest Lyapunov exponent\n" + _fixed_title(grid_name, table, axes), fontsize=9)
+        fig.suptitle(_title("Largest Lyapunov exponent", grid_name, table, axes, evidence), fontsize=9)
     else:
         xa = axes[0]
         fig, ax = plt.subplots(figsize=(9, 4), constrained_layout=True)
@@ -215,7 +226,7 @@ def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: in
         ax.set_xlabel(_axis_label(xa))
         ax.set_ylabel(r"$\lambda_1 T$ (per forcing period)")
         ax.legend(fontsize=8)
-        ax.set_title("Largest Lyapunov exponent\n" + _fixed_title(grid_name, table, axes), fontsize=9)
+        ax.set_title(_title("Largest Lyapunov exponent", grid_name, table, axes, evidence), fontsize=9)
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
 

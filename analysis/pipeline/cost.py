@@ -10,7 +10,12 @@ The estimate is a cost model, ``seconds = c * periods / Omega``, per stage and p
   points that need the label's long Benettin record, its expected extra length (half-way
   between the first run and the cap);
 * the adaptive transient adds one continuation (``n_transient + n_record`` periods) to the
-  expected share :data:`EXTENDED_SHARE` of the points.
+  expected share :data:`EXTENDED_SHARE` of the points;
+* the convergence runs (:mod:`analysis.pipeline.convergence`; :func:`convergence_seconds`):
+  per grid and pending refinement, the sample size times the mean estimate of the grid's points
+  with that refinement applied (the sample is drawn from the finished map, so its points are
+  not known before; the store is not consulted).  The cost model does not see ``k_t``: the
+  stiffer interface's shorter RK4 step in the Lyapunov runs is not in the estimate.
 
 The two shares are measured on the default grid (docs/pipeline.md: 26 % of the points ran a
 long record, 29 % were continued, 3.5 % twice); other grids differ.
@@ -24,7 +29,7 @@ content-addressed store (:mod:`analysis.pipeline.store`) holds no record of it.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -34,7 +39,8 @@ from analysis.pipeline.config import Numerics
 from analysis.pipeline.stages import integrator
 from analysis.pipeline.store import PointStore
 
-__all__ = ["COST_MODEL_FILE", "Estimate", "LONG_RUN_SECONDS", "estimate_run", "load_cost_model"]
+__all__ = ["COST_MODEL_FILE", "Estimate", "LONG_RUN_SECONDS", "convergence_seconds", "estimate_run",
+           "load_cost_model"]
 
 COST_MODEL_FILE = Path(__file__).with_name("cost_model.yaml")
 #: a run estimated longer than this on the current cores needs ``--config allow_long=True``
@@ -51,8 +57,10 @@ class Estimate:
 
     points : grid points of the run (distinct ids).
     new_simulate, new_lyapunov : points without a store record for that stage.
-    cpu_seconds : estimated single-thread time of the new work [s].
+    cpu_seconds : estimated single-thread time of the new work [s], the convergence runs'
+        included.
     disk_bytes : estimated size of the new store records [bytes].
+    convergence_runs : sampled points still to re-run under a refinement (all grids).
     """
 
     points: int
@@ -60,15 +68,19 @@ class Estimate:
     new_lyapunov: int
     cpu_seconds: float
     disk_bytes: float = 0.0
+    convergence_runs: int = 0
 
     def wall_seconds(self, cores: int) -> float:
         """Estimated wall time on ``cores`` cores (points are spread over threads and jobs)."""
-        return self.cpu_seconds / max(1, min(cores, max(self.new_simulate, self.new_lyapunov, 1)))
+        parallel = max(self.new_simulate, self.new_lyapunov, self.convergence_runs, 1)
+        return self.cpu_seconds / max(1, min(cores, parallel))
 
     def summary(self, cores: int) -> str:
         """One line: points, new points per stage, estimated time on ``cores`` cores."""
+        n = self.convergence_runs
+        conv = f", {n} convergence re-run{'s' if n != 1 else ''}" if n else ""
         return (f"{self.points} points; to compute: {self.new_simulate} simulate, "
-                f"{self.new_lyapunov} lyapunov; estimated {_duration(self.wall_seconds(cores))} "
+                f"{self.new_lyapunov} lyapunov{conv}; estimated {_duration(self.wall_seconds(cores))} "
                 f"on {cores} core{'s' if cores != 1 else ''}")
 
 
@@ -119,10 +131,34 @@ def point_seconds(params: Mapping, numerics: Numerics, model: Mapping, stages: I
     return seconds
 
 
+def convergence_seconds(points: Sequence, numerics: Numerics, refinements: Iterable[str], sample: int,
+                        model: Mapping | None = None) -> tuple[float, int]:
+    """Estimated single-thread seconds and the number of point runs of one grid's convergence
+    runs: for each of ``refinements``, ``min(sample, len(points))`` times the mean of
+    :func:`point_seconds` (both stages) over ``points`` refined."""
+    from analysis.pipeline.convergence import refine
+
+    model = load_cost_model() if model is None else model
+    n = min(int(sample), len(points))
+    seconds, runs = 0.0, 0
+    for ref in refinements:
+        costs = []
+        for p in points:
+            params, nm = refine(ref, p.params, numerics)
+            costs.append(point_seconds(params, nm, model, ("simulate", "lyapunov")))
+        if costs and n:
+            seconds += n * sum(costs) / len(costs)
+            runs += n
+    return seconds, runs
+
+
 def estimate_run(points: Iterable, numerics: Numerics, store_root: str | Path,
-                 model: Mapping | None = None) -> Estimate:
+                 model: Mapping | None = None,
+                 convergence: Iterable[tuple[Sequence, Iterable[str], int]] = ()) -> Estimate:
     """Estimate of the work for ``points`` (objects with ``point_id`` and ``params``; the same
-    point in two grids counts once) given what ``store_root`` already holds."""
+    point in two grids counts once) given what ``store_root`` already holds, plus the
+    convergence runs still to do: ``(grid's points, pending refinements, sample)`` per grid
+    (:func:`convergence_seconds`)."""
     model = load_cost_model() if model is None else model
     stores = {s: PointStore(store_root, s) for s in ("simulate", "lyapunov")}
     unique = {p.point_id: p.params for p in points}
@@ -134,4 +170,9 @@ def estimate_run(points: Iterable, numerics: Numerics, store_root: str | Path,
         if todo:
             seconds += point_seconds(params, numerics, model, todo)
             disk += _coefficient(model["bytes_per_point"], int(params.get("n_modes", 1)))
-    return Estimate(len(unique), new["simulate"], new["lyapunov"], seconds, disk)
+    conv_runs = 0
+    for grid_points, refinements, sample in convergence:
+        s, r = convergence_seconds(grid_points, numerics, refinements, sample, model)
+        seconds += s
+        conv_runs += r
+    return Estimate(len(unique), new["simulate"], new["lyapunov"], seconds, disk, conv_runs)

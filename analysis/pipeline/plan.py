@@ -18,6 +18,7 @@ import yaml
 from snakemake.exceptions import WorkflowError
 
 from analysis.pipeline.config import Numerics
+from analysis.pipeline.convergence import ConvergenceSettings, refine
 from analysis.pipeline.grid import GridPoint, canonical_json, chunk_points, expand_grid
 from analysis.pipeline.stages import integrator
 from analysis.pipeline.validation import (
@@ -44,6 +45,7 @@ class Plan:
     config_hash : 16 hex digits of ``table_config`` and ``grids``.
     points : grid name -> its points in axis order; chunks : grid name -> its chunks.
     simulation_methods : integrators of the reference runs.
+    convergence : the convergence runs' settings (sample size, seed, refinements).
     """
 
     grids: dict
@@ -54,6 +56,7 @@ class Plan:
     points: dict[str, list[GridPoint]]
     chunks: dict[str, list[list[GridPoint]]]
     simulation_methods: list[str]
+    convergence: ConvergenceSettings
 
 
 def check_config_files(paths) -> None:
@@ -91,5 +94,13 @@ def build_plan(config: dict, schemas: Path) -> Plan:
     validate_grid_points(points, grids["grids"], grid_file)
     chunks = {name: chunk_points(pts, numerics.chunk_size) for name, pts in points.items()}
     methods = sorted({integrator(numerics.method, p.params) for pts in points.values() for p in pts})
+    try:
+        convergence = ConvergenceSettings.from_dict(config.get("convergence"))
+        for pts in points.values():  # every refinement applies to every point (modes + 1 <= max)
+            for ref in convergence.active:
+                for p in pts:
+                    refine(ref, p.params, numerics)
+    except ValueError as exc:
+        raise WorkflowError(f"invalid config: {exc}") from None
     return Plan(grids, numerics, result_numerics, table_config, config_hash, points, chunks,
-                methods)
+                methods, convergence)

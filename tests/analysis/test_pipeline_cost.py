@@ -53,6 +53,26 @@ def test_the_estimate_scales_with_simulated_time(tmp_path):
     assert estimate_run(_points([2.0], longer), longer, tmp_path).cpu_seconds == pytest.approx(2 * one)
 
 
+def test_the_convergence_runs_are_in_the_estimate(tmp_path):
+    """Each refinement adds ``sample`` refined point runs: the windows' doubled periods cost
+    twice a map point, the halved Lyapunov step twice its Lyapunov part, one more mode more."""
+    pts = _points([2.0, 3.0, 4.0])
+    base = estimate_run(pts, Numerics(), tmp_path)
+    mean = base.cpu_seconds / len(pts)
+    windows = estimate_run(pts, Numerics(), tmp_path, convergence=[(pts, ["windows"], 2)])
+    assert windows.convergence_runs == 2
+    assert windows.cpu_seconds - base.cpu_seconds == pytest.approx(2 * 2 * mean)
+    modes = estimate_run(pts, Numerics(), tmp_path, convergence=[(pts, ["modes"], 2)])
+    assert modes.cpu_seconds - base.cpu_seconds > 2 * mean
+    none = estimate_run(pts, Numerics(), tmp_path, convergence=[(pts, [], 2), (pts, ["k_t"], 0)])
+    assert none.cpu_seconds == base.cpu_seconds and none.convergence_runs == 0
+    many = estimate_run(pts, Numerics(), tmp_path, convergence=[(pts, ["k_t"], 50)])
+    assert many.convergence_runs == 3  # the sample is at most the grid
+    assert "3 convergence re-runs" in many.summary(2)
+    assert "1 convergence re-run;" in estimate_run(pts, Numerics(), tmp_path,
+                                                   convergence=[(pts, ["k_t"], 1)]).summary(2)
+
+
 def test_a_long_run_needs_the_opt_in():
     est = Estimate(points=10, new_simulate=10, new_lyapunov=10, cpu_seconds=4 * LONG_RUN_SECONDS)
     check_run_length(est, cores=8, allow_long=False)  # half an hour on 8 cores
@@ -75,7 +95,9 @@ def test_a_ten_thousand_point_grid_is_planned_by_a_dry_run_and_refused_without_o
     work = setup_workdir(tmp_path / "huge", grid=grid, n_transient=200, chunk_size=100)
     dry = snakemake(work, "-n", "regimes")
     assert dry.returncode == 0, dry.stderr[-2000:]
-    words = "regimes: 10000 points; to compute: 10000 simulate, 10000 lyapunov; estimated"
+    # the test workflows' convergence step: one sampled point, one refinement
+    words = ("regimes: 10000 points; to compute: 10000 simulate, 10000 lyapunov, 1 convergence re-run; "
+             "estimated")
     assert words in dry.stdout + dry.stderr
     res = snakemake(work, "regimes")
     lines = [ln for ln in (res.stdout + res.stderr).splitlines() if ln.startswith("long run:")]

@@ -20,6 +20,9 @@ GRID = {"grids": {"tiny": {"axes": {"f0_rel": [0.5, 3.0]}, "fixed": {"Omega": 2.
 #: block statistics of the Lyapunov stage within the shipped 25-period Stefanski window
 SHORT_LYAPUNOV = {"block_periods": 5, "burn_in": 5, "min_blocks": 2, "max_blocks": 4}
 
+#: the convergence step of the test workflows: one sampled point, one refinement
+SHORT_CONVERGENCE = {"sample": 1, "seed": 0, "refinements": ["k_t"]}
+
 
 def snakemake_command(workdir: Path, *args: str, cores: int = 2) -> list[str]:
     return [sys.executable, "-m", "snakemake", "-s", str(ROOT / "Snakefile"), "-d", str(workdir),
@@ -35,12 +38,14 @@ def snakemake(workdir: Path, *args: str, cores: int = 2) -> subprocess.Completed
                           timeout=900, env=snakemake_env())
 
 
-def setup_workdir(path: Path, grid: dict = GRID, **numerics) -> Path:
+def setup_workdir(path: Path, grid: dict = GRID, convergence: dict = SHORT_CONVERGENCE,
+                  **numerics) -> Path:
     """``path`` with ``config.yaml`` (the shipped config, short runs -- a fixed transient, a
-    long Benettin record no longer than the Stefanski window --, one point per chunk, and
-    ``numerics`` overrides) and ``grid.yaml``."""
+    long Benettin record no longer than the Stefanski window, ``convergence`` for the
+    convergence step --, one point per chunk, and ``numerics`` overrides) and ``grid.yaml``."""
     cfg = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
     cfg["numerics"]["lyapunov"].update(SHORT_LYAPUNOV)
+    cfg["convergence"] = dict(convergence)
     cfg["numerics"].update({"n_transient": 4, "n_record": 128, "chunk_size": 1} | numerics)
     cfg["numerics"].setdefault("n_transient_max", cfg["numerics"]["n_transient"])
     if "n_transient_max" not in numerics:

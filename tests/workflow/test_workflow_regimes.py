@@ -3,10 +3,12 @@ reproducibility across core counts, and config errors that stop before any job."
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 
 import pandas as pd
+import pyarrow.parquet as pq
 import pytest
 import yaml
 from workflow_run import GRID, ROOT, setup_workdir, snakemake
@@ -18,9 +20,13 @@ from analysis.regimes import CLASSIFIER_VERSION
 # the tests share one built working directory (module fixture; make test hands whole files to a
 # worker: --dist loadfile)
 
+#: the convergence step with every refinement, on one sampled point
+CONVERGENCE = {"sample": 1, "seed": 0, "refinements": ["step", "windows", "k_t", "modes"]}
+
+
 @pytest.fixture(scope="module")
 def first_run(tmp_path_factory):
-    work = setup_workdir(tmp_path_factory.mktemp("regimes"))
+    work = setup_workdir(tmp_path_factory.mktemp("regimes"), convergence=CONVERGENCE)
     res = snakemake(work, "regimes")
     assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
     return work
@@ -62,6 +68,24 @@ def test_outputs_table_schema_and_metadata(first_run):
     assert meta["classifier_version"] == CLASSIFIER_VERSION and meta["results_version"] == RESULTS_VERSION
 
 
+def test_convergence_step_ships_with_the_map(first_run):
+    """The convergence runs of every refinement, their table (with the config hash of the map)
+    and figure are part of `regimes`; the sampled point's row under each refinement refers to
+    the map's point and to a refined point of its own."""
+    out = first_run / "results" / "regimes"
+    assert (out / "tiny" / "convergence.png").stat().st_size > 0
+    runs = pd.read_parquet(out / "tiny" / "convergence.parquet")
+    assert list(runs["refinement"]) == CONVERGENCE["refinements"]
+    table = pd.read_parquet(out / "tiny.parquet")
+    assert set(runs["point_id"]) <= set(table["point_id"]) and runs["point_id"].nunique() == 1
+    assert not set(runs["refined_point_id"]) & set(table["point_id"])
+    row = table.set_index("point_id").loc[runs["point_id"].iloc[0]]
+    assert (runs["label"] == row["label"]).all() and (runs["f0_rel"] == row["f0_rel"]).all()
+    assert (runs["holds"] == (runs["label"] == runs["refined_label"])).all()
+    meta = pq.read_schema(out / "tiny" / "convergence.parquet").metadata[b"beamsim.convergence"]
+    assert json.loads(meta)["config_hash"] == read_regime_metadata(out / "tiny.parquet")["config_hash"]
+
+
 def test_adding_a_point_computes_only_the_new_one(first_run, tmp_path):
     grid = yaml.safe_load(yaml.safe_dump(GRID))
     grid["grids"]["tiny"]["axes"]["f0_rel"] = [0.5, 1.5, 3.0]
@@ -83,14 +107,16 @@ def test_adding_a_point_computes_only_the_new_one(first_run, tmp_path):
 
 
 def test_same_config_same_table_whatever_the_core_count(first_run, tmp_path):
-    other = setup_workdir(tmp_path / "again")
-    res = snakemake(other, "results/regimes/tiny.parquet", cores=1)
+    other = setup_workdir(tmp_path / "again", convergence=CONVERGENCE)
+    targets = ("results/regimes/tiny.parquet", "results/regimes/tiny/convergence.parquet")
+    res = snakemake(other, *targets, cores=1)
     assert res.returncode == 0, res.stderr[-3000:]
-    res = snakemake(first_run, "results/regimes/tiny.parquet")  # first_run's grid restored above
+    res = snakemake(first_run, *targets)  # first_run's grid restored above
     assert res.returncode == 0, res.stderr[-3000:]
-    a = pd.read_parquet(first_run / "results" / "regimes" / "tiny.parquet")
-    b = pd.read_parquet(other / "results" / "regimes" / "tiny.parquet")
-    pd.testing.assert_frame_equal(a, b)
+    for name in targets:
+        a = pd.read_parquet(first_run / name)
+        b = pd.read_parquet(other / name)
+        pd.testing.assert_frame_equal(a, b, check_exact=True)
     assert read_regime_metadata(other / "results/regimes/tiny.parquet")["config_hash"] == \
         read_regime_metadata(first_run / "results/regimes/tiny.parquet")["config_hash"]
 

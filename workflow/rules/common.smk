@@ -27,6 +27,10 @@ CONFIG_HASH = PLAN.config_hash
 TABLE_CONFIG = PLAN.table_config
 #: integrators of the reference runs (compile_kernels builds just these)
 SIMULATION_METHODS = PLAN.simulation_methods
+#: the convergence evidence of every map (analysis.pipeline.convergence): refinements that run
+CONVERGENCE = PLAN.convergence
+CONVERGENCE_SETTINGS = {"sample": CONVERGENCE.sample, "seed": CONVERGENCE.seed,
+                        "refinements": list(CONVERGENCE.refinements)}
 #: the content-addressed per-point store (analysis.pipeline.store)
 STORE_ROOT = "results/store"
 #: the paper target (--config paper_file=..., else config/paper.yaml of the working directory,
@@ -39,7 +43,15 @@ PAPER_STRIBECK = stribeck_constants(PAPER.paper, PAPER.model)
 
 
 if workflow.is_main_process:  # not in the per-job processes of a cluster executor
-    ESTIMATE = estimate_run([p for pts in POINTS.values() for p in pts], PLAN.numerics, STORE_ROOT)
+    # the convergence refinements whose runs are not on disk yet
+    PENDING_CONVERGENCE = [
+        (POINTS[g], [r for r in CONVERGENCE.active
+                     if not Path(f"results/regimes/{g}/convergence/{r}.parquet").exists()],
+         CONVERGENCE.sample)
+        for g in GRIDS["grids"]
+    ]
+    ESTIMATE = estimate_run([p for pts in POINTS.values() for p in pts], PLAN.numerics, STORE_ROOT,
+                            convergence=PENDING_CONVERGENCE)
     logger.info(f"regimes: {ESTIMATE.summary(workflow.global_resources.get('_cores') or 1)}")
 
 
@@ -79,6 +91,26 @@ def grid_mode_files(wildcards) -> list[str]:
     """The cached modes every point of a grid needs."""
     keys = sorted({model_cache_key(p.params) for p in POINTS[wildcards.grid]})
     return [f"results/modes/{k}/modes.parquet" for k in keys]
+
+
+def convergence_mode_files(wildcards) -> list[str]:
+    """The cached modes the refined points of one refinement of a grid may need (any point of
+    the grid can be in the sample)."""
+    from analysis.pipeline.convergence import refine
+
+    keys = sorted({model_cache_key(refine(wildcards.refinement, p.params, PLAN.numerics)[0])
+                   for p in POINTS[wildcards.grid]})
+    return [f"results/modes/{k}/modes.parquet" for k in keys]
+
+
+def convergence_files(wildcards) -> list[str]:
+    """The per-refinement convergence runs of a grid (none when ``convergence.sample`` is 0)."""
+    return [f"results/regimes/{wildcards.grid}/convergence/{r}.parquet" for r in CONVERGENCE.active]
+
+
+def convergence_table(wildcards) -> list[str]:
+    """The convergence table a grid's map figure reports (none when ``convergence.sample`` is 0)."""
+    return [f"results/regimes/{wildcards.grid}/convergence.parquet"] if CONVERGENCE.active else []
 
 
 def mode_key() -> str:

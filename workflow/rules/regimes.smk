@@ -91,9 +91,68 @@ rule regime_table:
         "../scripts/regime_table.py"
 
 
+rule convergence_runs:
+    input:
+        table="results/regimes/{grid}.parquet",
+        modes=convergence_mode_files,
+        kernels=ancient(["results/kernels/simulate.done", "results/kernels/lyapunov.done"]),
+    output:
+        table="results/regimes/{grid}/convergence/{refinement}.parquet",
+    params:
+        numerics=RESULT_NUMERICS,
+        settings=CONVERGENCE_SETTINGS,
+        axes=lambda wc: list(GRIDS["grids"][wc.grid]["axes"]),
+        store=STORE_ROOT,
+    threads: 2
+    log:
+        "logs/regimes/{grid}/convergence_{refinement}.log",
+    conda:
+        "../envs/beamsim.yaml"
+    script:
+        "../scripts/convergence_runs.py"
+
+
+rule convergence_table:
+    input:
+        runs=convergence_files,
+    output:
+        table="results/regimes/{grid}/convergence.parquet",
+    params:
+        config_hash=CONFIG_HASH,
+        settings=CONVERGENCE_SETTINGS,
+    log:
+        "logs/regimes/{grid}/convergence_table.log",
+    conda:
+        "../envs/beamsim.yaml"
+    script:
+        "../scripts/convergence_table.py"
+
+
+rule convergence_figure:
+    input:
+        table="results/regimes/{grid}/convergence.parquet",
+    output:
+        figure=report(
+            "results/regimes/{grid}/convergence.png",
+            caption="../report/convergence.rst",
+            category="Regime maps",
+            subcategory="{grid}",
+        ),
+    params:
+        axes=lambda wc: list(GRIDS["grids"][wc.grid]["axes"]),
+        dpi=config.get("figures", {}).get("dpi", 130),
+    log:
+        "logs/regimes/{grid}/convergence_figure.log",
+    conda:
+        "../envs/beamsim.yaml"
+    script:
+        "../scripts/convergence_figure.py"
+
+
 rule regime_figures:
     input:
         table="results/regimes/{grid}.parquet",
+        convergence=convergence_table,
     output:
         regimes=report(
             "results/regimes/{grid}/regimes.png",
@@ -148,3 +207,5 @@ rule regimes:
         expand("results/regimes/{grid}/regimes.png", grid=list(GRIDS["grids"])),
         expand("results/regimes/{grid}/lle.png", grid=list(GRIDS["grids"])),
         expand("results/regimes/{grid}/portraits.png", grid=list(GRIDS["grids"])),
+        expand("results/regimes/{grid}/convergence.png",
+               grid=list(GRIDS["grids"]) if CONVERGENCE.active else []),

@@ -7,10 +7,13 @@ sys.stderr = open(snakemake.log[0], "w")
 import pandas as pd
 
 from analysis.figures.regimes import plot_lle, plot_regimes
+from analysis.pipeline.convergence import convergence_summary, summary_line
 from analysis.pipeline.stages import lle_resolution
 
 table = pd.read_parquet(snakemake.input.table)
 grid, name, dpi = snakemake.params.grid, snakemake.wildcards.grid, snakemake.params.dpi
-plot_regimes(table, name, grid, snakemake.output.regimes, dpi=dpi)
+runs = [pd.read_parquet(f) for f in snakemake.input.convergence]
+evidence = summary_line(convergence_summary(runs[0]) if runs else None)
+plot_regimes(table, name, grid, snakemake.output.regimes, dpi=dpi, evidence=evidence)
 plot_lle(table, name, grid, snakemake.output.lle, dpi=dpi,
-         resolution=lle_resolution(snakemake.params.numerics))
+         resolution=lle_resolution(snakemake.params.numerics), evidence=evidence)

@@ -1,0 +1,304 @@
+"""Convergence evidence of a regime map: a seeded sample of its points re-run with refined
+numerics and model discretisation, and the fraction of points whose label holds.
+
+A label is a result only if it does not move with a numerical knob.  Each refinement of
+:data:`REFINEMENTS` changes one knob of every sampled point (the reference and the refined
+run share everything else) and sends the refined points through the pipeline's own stages
+(:func:`analysis.pipeline.stages.simulate_points`, :func:`~analysis.pipeline.stages.lyapunov_points`,
+:func:`~analysis.pipeline.stages.classify_points`), with the refined settings in their point ids
+(so the per-point store caches them like any other point):
+
+* ``step``: integration steps halved: the reference run's step (RK4: ``step_factor / 2``;
+  ``expo`` and ``newmark``: twice the steps per period, i.e. half the spacing of ``expo``'s
+  switch checks) and the Lyapunov runs' RK4 step;
+* ``windows``: transient (and its cap), record, Stefanski window, Lyapunov burn-in and blocks
+  all twice as long (the same number of blocks, each twice as long);
+* ``k_t``: the Jenkins (stick) stiffness of the interface three times larger;
+* ``modes``: one more arch mode in the Galerkin basis.
+
+The sample (:func:`sample_points`) is stratified by the map's labels: every label present is
+represented (rare ones, such as ``chaotic``, by at least :data:`MIN_PER_LABEL` points when the
+map has them), the rest of the sample is shared in proportion to the labels' counts, and the
+points of a label are drawn with a seeded generator.  Each sampled point carries the weight of
+its stratum (points of the label in the map / sampled points of the label), so
+:func:`convergence_summary` gives both the fraction of sampled points whose label holds and the
+map-weighted estimate of the fraction of the map's points.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from analysis.pipeline.config import Numerics, as_numerics
+from analysis.pipeline.grid import canonical_json, point_id
+
+__all__ = ["ConvergenceSettings", "REFINEMENTS", "convergence_runs", "convergence_summary",
+           "label_text", "refine", "same_label", "sample_points", "summary_line",
+           "write_convergence_table"]
+
+#: refinement name -> what it changes (the figure's and the docs' wording)
+REFINEMENTS = {
+    "step": "step / 2",
+    "windows": "windows x 2",
+    "k_t": "k_t x 3",
+    "modes": "modes + 1",
+}
+
+#: the least number of sampled points of every label the map has (when it has that many)
+MIN_PER_LABEL = 2
+
+#: the model's largest Galerkin basis (workflow/schemas/config.schema.yaml, model.n_modes)
+MAX_MODES = 12
+
+
+@dataclass(frozen=True)
+class ConvergenceSettings:
+    """The ``convergence`` section of the config.
+
+    sample : points of each grid re-run per refinement (0: no convergence runs; the map then
+        says that its labels were not checked).
+    seed : seed of the sample's draw.
+    refinements : names from :data:`REFINEMENTS`, in the order of the table and figure.
+    """
+
+    sample: int = 20
+    seed: int = 0
+    refinements: tuple[str, ...] = tuple(REFINEMENTS)
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any] | None) -> ConvergenceSettings:
+        d = dict(d or {})
+        unknown = set(d) - {"sample", "seed", "refinements"}
+        if unknown:
+            raise ValueError(f"convergence: unknown key(s) {sorted(unknown)}; "
+                             "allowed: ['refinements', 'sample', 'seed']")
+        refs = tuple(d.pop("refinements", cls.refinements))
+        bad = [r for r in refs if r not in REFINEMENTS]
+        if bad:
+            raise ValueError(f"convergence.refinements = {bad}; allowed: {', '.join(REFINEMENTS)}")
+        if len(set(refs)) != len(refs):
+            raise ValueError(f"convergence.refinements = {list(refs)} names a refinement twice")
+        out = cls(refinements=refs, **d)
+        if out.sample < 0:
+            raise ValueError(f"convergence.sample = {out.sample}; allowed: an integer >= 0")
+        return out
+
+    @property
+    def active(self) -> tuple[str, ...]:
+        """The refinements that run (none when ``sample`` is 0)."""
+        return self.refinements if self.sample > 0 else ()
+
+
+# ----------------------------------------------------------------------------- refinements
+def refine(refinement: str, params: dict, numerics: Numerics | dict) -> tuple[dict, Numerics]:
+    """The parameters and numerics of ``refinement`` (a key of :data:`REFINEMENTS`) applied to
+    one point; everything else unchanged."""
+    from analysis.pipeline.stages import integrator
+    from beamsim.point import DEFAULT_STEPS_PER_PERIOD
+    from beamsim.two_layer import Geometry
+
+    nm = as_numerics(numerics)
+    p = dict(params)
+    ly = nm.lyapunov
+    if refinement == "step":
+        method = integrator(nm.method, p)
+        if nm.steps_per_period is not None:
+            nm = replace(nm, steps_per_period=2 * nm.steps_per_period)
+        elif method in DEFAULT_STEPS_PER_PERIOD:
+            nm = replace(nm, steps_per_period=2 * DEFAULT_STEPS_PER_PERIOD[method])
+        else:
+            nm = replace(nm, step_factor=nm.step_factor / 2)
+        nm = replace(nm, lyapunov=replace(ly, step_factor=ly.step_factor / 2))
+    elif refinement == "windows":
+        nm = replace(nm, n_transient=2 * nm.n_transient, n_transient_max=2 * nm.n_transient_max,
+                     n_record=2 * nm.n_record,
+                     lyapunov=replace(ly, n_periods=2 * ly.n_periods, burn_in=2 * ly.burn_in,
+                                      block_periods=2 * ly.block_periods))
+    elif refinement == "k_t":
+        p["k_t"] = 3.0 * float(p.get("k_t", Geometry.k_t))
+    elif refinement == "modes":
+        n = int(p.get("n_modes", Geometry.n_modes))
+        if n + 1 > MAX_MODES:
+            raise ValueError(f"convergence.refinements: 'modes' needs n_modes + 1 <= {MAX_MODES}, "
+                             f"a point has n_modes = {n}")
+        p["n_modes"] = n + 1
+    else:
+        raise ValueError(f"unknown refinement {refinement!r}; allowed: {', '.join(REFINEMENTS)}")
+    return p, nm
+
+
+# ----------------------------------------------------------------------------- sample
+def _quotas(counts: pd.Series, n: int) -> dict:
+    """Sampled points per label: at least ``min(count, MIN_PER_LABEL)`` each, the rest in
+    proportion to the counts (largest remainder, ties by label name), never above a count."""
+    counts = counts.sort_index()
+    if n >= counts.sum():
+        return counts.to_dict()
+    q = {lab: min(int(c), MIN_PER_LABEL) for lab, c in counts.items()}
+    while sum(q.values()) > n:  # more labels than room: the most common label gives way first
+        lab = max((lab for lab in q if q[lab] > 0), key=lambda lab: (q[lab], counts[lab], lab))
+        q[lab] -= 1
+    left = n - sum(q.values())
+    while left > 0:
+        room = {lab: counts[lab] - q[lab] for lab in q if counts[lab] > q[lab]}
+        total = sum(counts[lab] for lab in room)
+        share = {lab: left * counts[lab] / total for lab in room}
+        add = {lab: min(int(np.floor(s)), room[lab]) for lab, s in share.items()}
+        if sum(add.values()) == 0:  # hand out one by largest remainder
+            lab = sorted(room, key=lambda lab: (-(share[lab] - np.floor(share[lab])), lab))[0]
+            add = {lab: 1}
+        for lab, k in add.items():
+            q[lab] += k
+        left = n - sum(q.values())
+    return q
+
+
+def sample_points(table: pd.DataFrame, n: int, seed: int = 0) -> pd.DataFrame:
+    """A seeded sample of ``n`` rows of a regime table, stratified by ``label``
+    (module docstring), with a ``weight`` column (the stratum's map count over its sample
+    count), in the table's order.  Deterministic: depends on the table's ``point_id`` and
+    ``label`` columns, ``n`` and ``seed`` only."""
+    counts = table["label"].value_counts()
+    quotas = _quotas(counts, int(n))
+    rng = np.random.default_rng(seed)
+    chosen = []
+    for lab in sorted(quotas):
+        ids = np.sort(table.loc[table["label"] == lab, "point_id"].to_numpy())
+        k = quotas[lab]
+        if k:
+            chosen += [(pid, counts[lab] / k) for pid in rng.choice(ids, size=k, replace=False)]
+    weight = dict(chosen)
+    out = table[table["point_id"].isin(weight)].copy()
+    out["weight"] = out["point_id"].map(weight).astype(float)
+    return out
+
+
+# ----------------------------------------------------------------------------- runs
+def label_text(label: str, period) -> str:
+    """A label with its period where it has one: ``periodic-2``, ``chaotic``."""
+    if label == "periodic" and period is not None and not pd.isna(period):
+        return f"periodic-{int(period)}"
+    return str(label)
+
+
+def same_label(label: str, period, other: str, other_period) -> bool:
+    """Whether a label holds: the same regime and, for a periodic orbit, the same period (a
+    period-2 orbit that becomes period 1 under a refinement is a different result)."""
+    return label_text(label, period) == label_text(other, other_period)
+
+
+def convergence_runs(table: pd.DataFrame, refinement: str, numerics: Numerics | dict,
+                     settings: ConvergenceSettings, store_root: str, axes: Sequence[str] = (),
+                     threads: int = 1) -> pd.DataFrame:
+    """Re-run the sample of a regime table under one refinement.
+
+    Returns one row per sampled point (the table's order): ``point_id`` (the map's),
+    ``refinement``, the ``axes`` values, ``weight``, ``label``/``period``/``lle_T``/``lle_lo_T``/
+    ``lle_hi_T`` of the map and ``refined_*`` of the refined run (``lambda_1 T`` per forcing
+    period), ``refined_reason``, ``refined_point_id`` and ``holds`` (the labels are equal).
+    """
+    from analysis.pipeline.stages import classify_points, lle_resolution, lyapunov_points, simulate_points
+
+    sample = sample_points(table, settings.sample, settings.seed)
+    refined = []
+    for _, row in sample.iterrows():
+        params, nm = refine(refinement, json.loads(row["params_json"]), numerics)
+        refined.append({"point_id": point_id(params, nm), "params": params, "numerics": nm})
+    # one pass of the stages per distinct numerics (a refined step can differ by law)
+    labels: dict = {}
+    groups: dict = {}
+    for r in refined:
+        groups.setdefault(canonical_json(r["numerics"].result_dict()), []).append(r)
+    for members in groups.values():
+        nm = members[0]["numerics"]
+        pts = [{"point_id": r["point_id"], "params": r["params"]} for r in members]
+        sim = simulate_points(pts, nm, store_root, threads)
+        lyap = lyapunov_points(pts, sim, nm, store_root, threads)
+        cls = classify_points(sim, lyap, lle_threshold=lle_resolution(nm))
+        merged = cls.merge(lyap[["point_id", "lle_mean", "lle_lo", "lle_hi"]], on="point_id").merge(
+            sim[["point_id", "omega"]], on="point_id")
+        for _, m in merged.iterrows():
+            labels[m["point_id"]] = m
+    rows = []
+    for (_, base), r in zip(sample.iterrows(), refined):
+        m = labels[r["point_id"]]
+        t_base, t_ref = 2.0 * np.pi / float(base["omega"]), 2.0 * np.pi / float(m["omega"])
+        row = {"point_id": base["point_id"], "refinement": refinement}
+        row |= {a: base[a] for a in axes}
+        row |= {"weight": float(base["weight"]),
+                "label": base["label"], "period": base["period"],
+                "lle_T": float(base["lle_mean"]) * t_base, "lle_lo_T": float(base["lle_lo"]) * t_base,
+                "lle_hi_T": float(base["lle_hi"]) * t_base,
+                "refined_label": m["label"], "refined_period": m["period"],
+                "refined_lle_T": float(m["lle_mean"]) * t_ref,
+                "refined_lle_lo_T": float(m["lle_lo"]) * t_ref,
+                "refined_lle_hi_T": float(m["lle_hi"]) * t_ref,
+                "refined_reason": m["reason"], "refined_point_id": r["point_id"],
+                "holds": same_label(base["label"], base["period"], m["label"], m["period"])}
+        rows.append(row)
+    out = pd.DataFrame(rows)
+    for c in ("period", "refined_period"):
+        out[c] = out[c].astype("Int64")
+    return out
+
+
+#: labels that are a verdict on the dynamics (the others say that there is none yet)
+DECIDED = ("periodic", "quasi-periodic", "chaotic")
+
+
+def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
+    """Per refinement (first-appearance order): ``n`` sampled points, ``held`` (labels equal),
+    ``fraction`` (held / n), ``map_fraction`` (the stratum-weighted estimate for the whole map),
+    ``contradicted`` (both labels a verdict, :data:`DECIDED`, and different: e.g. chaotic ->
+    periodic, unlike chaotic -> undetermined) and ``flips`` (``"from -> to: count"``, most
+    frequent first)."""
+    rows = []
+    for ref, g in runs.groupby("refinement", sort=False):
+        w = g["weight"].to_numpy(float)
+        holds = g["holds"].to_numpy(bool)
+        decided = g["label"].isin(DECIDED) & g["refined_label"].isin(DECIDED)
+        moved = g[~holds]
+        flips = pd.Series([f"{label_text(a, p)} -> {label_text(b, q)}" for a, p, b, q in
+                           zip(moved["label"], moved["period"], moved["refined_label"],
+                               moved["refined_period"])], dtype=object).value_counts()
+        flips = flips.sort_index().sort_values(ascending=False, kind="stable")
+        rows.append({"refinement": ref, "what": REFINEMENTS.get(ref, ref), "n": len(g),
+                     "held": int(holds.sum()), "fraction": float(holds.mean()) if len(g) else np.nan,
+                     "map_fraction": float((w * holds).sum() / w.sum()) if w.sum() > 0 else np.nan,
+                     "contradicted": int((decided & ~holds).sum()),
+                     "flips": "; ".join(f"{k}: {v}" for k, v in flips.items())})
+    return pd.DataFrame(rows)
+
+
+def summary_line(summary: pd.DataFrame) -> str:
+    """One line for a map's title: ``labels hold: step / 2 19/20, ...``."""
+    if summary is None or summary.empty:
+        return "labels not checked under refinement (convergence.sample = 0)"
+    parts = [f"{r['what']} {r['held']}/{r['n']}" for _, r in summary.iterrows()]
+    return "labels hold (sampled points): " + ", ".join(parts)
+
+
+def write_convergence_table(runs: pd.DataFrame, path: str, *, grid_name: str, settings: dict,
+                            config_hash: str) -> None:
+    """Write the runs of every refinement to Parquet (atomically) with ``beamsim.convergence``
+    metadata: grid name, settings, config hash, results and classifier versions."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from analysis.pipeline.atomic import atomic_output
+    from analysis.pipeline.grid import RESULTS_VERSION
+    from analysis.regimes import CLASSIFIER_VERSION
+
+    tab = pa.Table.from_pandas(runs, preserve_index=False)
+    meta = {"grid_name": grid_name, "settings": settings, "config_hash": config_hash,
+            "results_version": RESULTS_VERSION, "classifier_version": CLASSIFIER_VERSION}
+    tab = tab.replace_schema_metadata({**(tab.schema.metadata or {}),
+                                       b"beamsim.convergence": json.dumps(meta, sort_keys=True).encode()})
+    with atomic_output(path) as tmp:
+        pq.write_table(tab, tmp)

@@ -1,0 +1,172 @@
+"""Convergence evidence of a map (analysis.pipeline.convergence): what each refinement changes,
+the stratified seeded sample, the summary, and a linear limit whose label must hold under every
+refinement."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+import pytest
+import yaml
+
+from analysis.pipeline.config import Numerics
+from analysis.pipeline.convergence import (
+    REFINEMENTS,
+    ConvergenceSettings,
+    convergence_runs,
+    convergence_summary,
+    refine,
+    same_label,
+    sample_points,
+    summary_line,
+)
+from analysis.pipeline.grid import canonical_json, point_id
+
+ROOT = Path(__file__).resolve().parents[2]
+POINT = {"n_modes": 2, "k_t": 10.0, "mu_s": 0.45, "mu_k": 0.3, "Omega": 2.5, "f0_rel": 0.3}
+
+
+def test_each_refinement_changes_its_knob_only():
+    nm = Numerics()
+    p, r = refine("step", POINT, nm)  # stick-slip: expo reference, its switch checks twice as dense
+    assert p == POINT
+    assert r.steps_per_period == 128 and r.step_factor == nm.step_factor
+    assert r.lyapunov.step_factor == nm.lyapunov.step_factor / 2
+    p, r = refine("step", POINT | {"law": "stribeck"}, nm)  # RK4 reference: its step halved
+    assert r.steps_per_period is None and r.step_factor == nm.step_factor / 2
+    _, r = refine("step", POINT, Numerics(method="rk4", steps_per_period=300))
+    assert r.steps_per_period == 600
+    p, r = refine("windows", POINT, nm)
+    assert p == POINT
+    assert (r.n_transient, r.n_transient_max, r.n_record) == (2 * nm.n_transient, 2 * nm.n_transient_max,
+                                                              2 * nm.n_record)
+    ly, ly0 = r.lyapunov, nm.lyapunov
+    assert (ly.n_periods, ly.burn_in, ly.block_periods) == (2 * ly0.n_periods, 2 * ly0.burn_in,
+                                                            2 * ly0.block_periods)
+    assert (ly.min_blocks, ly.max_blocks, ly.step_factor) == (ly0.min_blocks, ly0.max_blocks, ly0.step_factor)
+    p, r = refine("k_t", POINT, nm)
+    assert p == POINT | {"k_t": 30.0} and r == nm
+    p, r = refine("modes", POINT, nm)
+    assert p == POINT | {"n_modes": 3} and r == nm
+    assert POINT["n_modes"] == 2 and POINT["k_t"] == 10.0  # the input is not modified
+    with pytest.raises(ValueError, match="n_modes"):
+        refine("modes", POINT | {"n_modes": 12}, nm)
+    with pytest.raises(ValueError, match="unknown refinement"):
+        refine("dt", POINT, nm)
+
+
+def test_refined_points_have_their_own_ids():
+    """The per-point store is keyed by id: a refined run must never be mistaken for the map's."""
+    ids = {point_id(POINT, Numerics())}
+    for ref in REFINEMENTS:
+        ids.add(point_id(*refine(ref, POINT, Numerics())))
+    assert len(ids) == 1 + len(REFINEMENTS)
+
+
+def _table(counts: dict) -> pd.DataFrame:
+    labels = [lab for lab, c in counts.items() for _ in range(c)]
+    return pd.DataFrame({"point_id": [f"{i:04d}" for i in range(len(labels))], "label": labels})
+
+
+def test_sample_is_stratified_seeded_and_weighted():
+    t = _table({"periodic": 165, "quasi-periodic": 169, "chaotic": 21, "undetermined": 38, "unsettled": 7})
+    s = sample_points(t, 20, seed=0)
+    assert len(s) == 20 and s["point_id"].is_unique
+    got = s["label"].value_counts()
+    assert set(got.index) == set(t["label"])  # every label present, rare ones at least twice
+    assert got.min() >= 2
+    assert got["quasi-periodic"] >= got["chaotic"] and got["periodic"] >= got["unsettled"]
+    # the stratum weights make the sample stand for the whole map
+    assert s["weight"].sum() == pytest.approx(len(t))
+    for lab, g in s.groupby("label"):
+        assert g["weight"].iloc[0] == pytest.approx((t["label"] == lab).sum() / len(g))
+    assert list(s.index) == sorted(s.index)  # the table's order
+    again = sample_points(t.sample(frac=1.0, random_state=3), 20, seed=0)  # row order is irrelevant
+    assert set(again["point_id"]) == set(s["point_id"])
+    assert set(sample_points(t, 20, seed=1)["point_id"]) != set(s["point_id"])
+    small = sample_points(_table({"periodic": 3, "chaotic": 1}), 10)
+    assert len(small) == 4 and (small["weight"] == 1.0).all()
+    tight = sample_points(_table({"a": 50, "b": 5, "c": 1}), 2)  # fewer slots than labels x 2
+    assert len(tight) == 2 and set(tight["label"]) == {"b", "c"}
+
+
+def test_summary_counts_fractions_and_flips():
+    runs = pd.DataFrame({
+        "point_id": ["a", "b", "c", "a", "b", "c"],
+        "refinement": ["step"] * 3 + ["k_t"] * 3,
+        "weight": [1.0, 3.0, 6.0] * 2,
+        "label": ["chaotic", "periodic", "periodic"] * 2,
+        "refined_label": ["chaotic", "periodic", "periodic", "quasi-periodic", "periodic", "chaotic"],
+        "period": [None, 1, 2] * 2, "refined_period": [None, 1, 2, None, 1, None],
+    })
+    runs["holds"] = [same_label(*r) for r in runs[["label", "period", "refined_label", "refined_period"]]
+                     .itertuples(index=False)]
+    s = convergence_summary(runs)
+    assert list(s["refinement"]) == ["step", "k_t"]
+    assert list(s["held"]) == [3, 1] and list(s["n"]) == [3, 3]
+    assert s["fraction"].tolist() == pytest.approx([1.0, 1 / 3])
+    assert s["map_fraction"].tolist() == pytest.approx([1.0, 0.3])
+    assert list(s["contradicted"]) == [0, 2]
+    assert s["flips"].iloc[1] == "chaotic -> quasi-periodic: 1; periodic-2 -> chaotic: 1"
+    assert summary_line(s) == "labels hold (sampled points): step / 2 3/3, k_t x 3 1/3"
+    runs.loc[3, "refined_label"] = "undetermined"  # no verdict: a change, not a contradiction
+    runs.loc[3, "holds"] = False
+    runs.loc[4, "refined_period"] = 3  # period 1 -> 3: the label does not hold
+    runs.loc[4, "holds"] = same_label("periodic", 1, "periodic", 3)
+    s = convergence_summary(runs)
+    assert list(s["held"]) == [3, 0] and list(s["contradicted"]) == [0, 2]
+    assert "periodic-1 -> periodic-3: 1" in s["flips"].iloc[1]
+    assert same_label("periodic", 2, "periodic", 2) and not same_label("periodic", 2, "periodic", 1)
+    assert same_label("chaotic", None, "chaotic", pd.NA)
+    assert not same_label("chaotic", None, "undetermined", None)
+    assert "not checked" in summary_line(None)
+
+
+def test_settings_defaults_are_the_shipped_config_and_bad_values_are_refused():
+    shipped = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())["convergence"]
+    assert ConvergenceSettings.from_dict(shipped) == ConvergenceSettings()
+    schema = yaml.safe_load((ROOT / "workflow" / "schemas" / "config.schema.yaml").read_text())
+    props = schema["properties"]["convergence"]["properties"]
+    assert {k: v["default"] for k, v in props.items()} == {"sample": 20, "seed": 0,
+                                                           "refinements": list(REFINEMENTS)}
+    assert ConvergenceSettings.from_dict({}) == ConvergenceSettings()
+    assert ConvergenceSettings.from_dict({"sample": 0}).active == ()
+    for bad, match in (({"sample": -1}, "sample"), ({"refinements": ["dt"]}, "refinements"),
+                       ({"refinements": ["k_t", "k_t"]}, "twice"), ({"size": 3}, "unknown")):
+        with pytest.raises(ValueError, match=match):
+            ConvergenceSettings.from_dict(bad)
+
+
+def test_a_linear_point_keeps_its_label_under_every_refinement(tmp_path):
+    """A limit with a known answer: below the slip onset (f0_rel 0.3: the peak tip load 0.6 of
+    the static slip load) every Jenkins element stays stuck and, with 10 % modal damping, the
+    beam is a linear damped structure under a harmonic load: after the transient its response
+    is the unique periodic orbit of the forcing period, whatever the step, the windows, k_t or
+    the mode count.  The label must be periodic-1 under every refinement and the refined run
+    must still never slip.  (A refinement that broke a run -- divergence, a spurious slip, a
+    transient cut short -- fails this.)  Without the damping the stuck beam's free vibration
+    never decays and the same point is a torus (quasi-periodic), which is not a test of the
+    refinements but of the start."""
+    from analysis.pipeline.stages import classify_points, lle_resolution, lyapunov_points, simulate_points
+    from analysis.pipeline.table import assemble_regime_table
+
+    nm = Numerics(n_transient=80, n_record=128, n_transient_max=80)  # 40: the decay still shows
+    point = POINT | {"damping": 0.1}
+    pts = [{"point_id": point_id(point, nm), "params": point, "index": [0]}]
+    sim = simulate_points(pts, nm, str(tmp_path), threads=2)
+    lyap = lyapunov_points(pts, sim, nm, str(tmp_path), threads=2)
+    table = assemble_regime_table(pts, sim, lyap, classify_points(sim, lyap, lle_resolution(nm)))
+    assert table["label"].iloc[0] == "periodic" and not table["slipped"].iloc[0]
+    settings = ConvergenceSettings(sample=1)
+    for ref in REFINEMENTS:
+        runs = convergence_runs(table, ref, nm, settings, str(tmp_path), axes=["f0_rel"], threads=2)
+        assert len(runs) == 1
+        r = runs.iloc[0]
+        assert r["refinement"] == ref and r["f0_rel"] == point["f0_rel"]
+        assert r["refined_label"] == "periodic" and r["refined_period"] == 1, (ref, r["refined_reason"])
+        assert bool(r["holds"])
+        assert r["refined_point_id"] != r["point_id"]
+        assert json.loads(table["params_json"].iloc[0]) == point  # the map's point is untouched
+    assert canonical_json(point) == table["params_json"].iloc[0]
