@@ -20,6 +20,7 @@ wildcard_constraints:
     grid=r"[A-Za-z0-9_-]+",  # grid names (workflow/schemas/grid.schema.yaml)
     chunk=r"[0-9]{3}",
     stage=r"simulate|lyapunov",
+    line=r"[A-Za-z0-9_-]+",  # continuation lines of a grid (grids.<grid>.lines)
     refinement=r"step|windows|k_t|modes",  # analysis.pipeline.convergence.REFINEMENTS
 
 

@@ -15,7 +15,9 @@ The estimate is a cost model, ``seconds = c * periods / Omega``, per stage and p
   per grid and pending refinement, the sample size times the mean estimate of the grid's points
   with that refinement applied (the sample is drawn from the finished map, so its points are
   not known before; the store is not consulted).  The cost model does not see ``k_t``: the
-  stiffer interface's shorter RK4 step in the Lyapunov runs is not in the estimate.
+  stiffer interface's shorter RK4 step in the Lyapunov runs is not in the estimate;
+* the continuation lines (:mod:`analysis.continuation`): both stages for every point of a
+  pending line, twice (up- and down-sweep).
 
 The two shares are measured on the default grid (docs/pipeline.md: 26 % of the points ran a
 long record, 29 % were continued, 3.5 % twice); other grids differ.
@@ -60,7 +62,7 @@ class Estimate:
     cpu_seconds : estimated single-thread time of the new work [s], the convergence runs'
         included.
     disk_bytes : estimated size of the new store records [bytes].
-    convergence_runs : sampled points still to re-run under a refinement (all grids).
+    convergence_runs : point runs of the convergence step and the continuation lines still to do.
     """
 
     points: int
@@ -78,7 +80,7 @@ class Estimate:
     def summary(self, cores: int) -> str:
         """One line: points, new points per stage, estimated time on ``cores`` cores."""
         n = self.convergence_runs
-        conv = f", {n} convergence re-run{'s' if n != 1 else ''}" if n else ""
+        conv = f", {n} convergence / continuation run{'s' if n != 1 else ''}" if n else ""
         return (f"{self.points} points; to compute: {self.new_simulate} simulate, "
                 f"{self.new_lyapunov} lyapunov{conv}; estimated {_duration(self.wall_seconds(cores))} "
                 f"on {cores} core{'s' if cores != 1 else ''}")
@@ -154,11 +156,13 @@ def convergence_seconds(points: Sequence, numerics: Numerics, refinements: Itera
 
 def estimate_run(points: Iterable, numerics: Numerics, store_root: str | Path,
                  model: Mapping | None = None,
-                 convergence: Iterable[tuple[Sequence, Iterable[str], int]] = ()) -> Estimate:
+                 convergence: Iterable[tuple[Sequence, Iterable[str], int]] = (),
+                 lines: Iterable[Sequence] = ()) -> Estimate:
     """Estimate of the work for ``points`` (objects with ``point_id`` and ``params``; the same
     point in two grids counts once) given what ``store_root`` already holds, plus the
     convergence runs still to do: ``(grid's points, pending refinements, sample)`` per grid
-    (:func:`convergence_seconds`)."""
+    (:func:`convergence_seconds`), plus the pending continuation ``lines`` (each a sequence of
+    points, run up and down; they count as convergence-like re-runs)."""
     model = load_cost_model() if model is None else model
     stores = {s: PointStore(store_root, s) for s in ("simulate", "lyapunov")}
     unique = {p.point_id: p.params for p in points}
@@ -175,4 +179,8 @@ def estimate_run(points: Iterable, numerics: Numerics, store_root: str | Path,
         s, r = convergence_seconds(grid_points, numerics, refinements, sample, model)
         seconds += s
         conv_runs += r
+    for line in lines:
+        for p in line:
+            seconds += 2 * point_seconds(p.params, numerics, model, ("simulate", "lyapunov"))
+            conv_runs += 2
     return Estimate(len(unique), new["simulate"], new["lyapunov"], seconds, disk, conv_runs)

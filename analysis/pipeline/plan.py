@@ -46,6 +46,7 @@ class Plan:
     points : grid name -> its points in axis order; chunks : grid name -> its chunks.
     simulation_methods : integrators of the reference runs.
     convergence : the convergence runs' settings (sample size, seed, refinements).
+    lines : grid name -> line name -> the line's points in axis order (continuation sweeps).
     """
 
     grids: dict
@@ -57,6 +58,7 @@ class Plan:
     chunks: dict[str, list[list[GridPoint]]]
     simulation_methods: list[str]
     convergence: ConvergenceSettings
+    lines: dict[str, dict[str, list[GridPoint]]]
 
 
 def check_config_files(paths) -> None:
@@ -93,6 +95,7 @@ def build_plan(config: dict, schemas: Path) -> Plan:
         raise WorkflowError(f"invalid config: {exc} [{grid_file}]") from None
     validate_grid_points(points, grids["grids"], grid_file)
     chunks = {name: chunk_points(pts, numerics.chunk_size) for name, pts in points.items()}
+    lines = _expand_lines(grids["grids"], config["model"], result_numerics, model_schema, grid_file)
     methods = sorted({integrator(numerics.method, p.params) for pts in points.values() for p in pts})
     try:
         convergence = ConvergenceSettings.from_dict(config.get("convergence"))
@@ -103,4 +106,34 @@ def build_plan(config: dict, schemas: Path) -> Plan:
     except ValueError as exc:
         raise WorkflowError(f"invalid config: {exc}") from None
     return Plan(grids, numerics, result_numerics, table_config, config_hash, points, chunks,
-                methods, convergence)
+                methods, convergence, lines)
+
+
+def _expand_lines(grids: dict, model: dict, result_numerics: dict, model_schema: dict,
+                  grid_file: str) -> dict[str, dict[str, list[GridPoint]]]:
+    """The continuation lines of every grid (``grids.<g>.lines.<l>``: one axis, ``fixed`` on top
+    of the grid's), checked like grids; a line must keep one state size (its axis cannot be
+    ``n_modes`` or ``n_quad``): each point starts from its neighbour's end state."""
+    as_grids = {}
+    for g, grid in grids.items():
+        for name, line in grid.get("lines", {}).items():
+            inherited = {k: v for k, v in grid.get("fixed", {}).items() if k not in line["axes"]}
+            as_grids[f"{g}.lines.{name}"] = {"axes": line["axes"],
+                                             "fixed": inherited | dict(line.get("fixed", {}))}
+    if not as_grids:
+        return {g: {} for g in grids}
+    validate_grid_values(as_grids, model_schema, grid_file)
+    try:
+        expanded = {name: expand_grid(name, line, model, result_numerics) for name, line in as_grids.items()}
+    except ValueError as exc:
+        raise WorkflowError(f"invalid config: {exc} [{grid_file}]") from None
+    validate_grid_points(expanded, as_grids, grid_file)
+    out: dict = {g: {} for g in grids}
+    for name, pts in expanded.items():
+        sizes = {(p.params.get("n_modes"), p.params.get("n_quad")) for p in pts}
+        if len(sizes) > 1:
+            raise WorkflowError(f"invalid config: grids.{name}: a continuation line needs one state "
+                                f"size (its axis cannot be n_modes or n_quad) [{grid_file}]")
+        g, _, line = name.split(".", 2)
+        out[g][line] = pts
+    return out

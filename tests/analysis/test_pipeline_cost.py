@@ -68,8 +68,12 @@ def test_the_convergence_runs_are_in_the_estimate(tmp_path):
     assert none.cpu_seconds == base.cpu_seconds and none.convergence_runs == 0
     many = estimate_run(pts, Numerics(), tmp_path, convergence=[(pts, ["k_t"], 50)])
     assert many.convergence_runs == 3  # the sample is at most the grid
-    assert "3 convergence re-runs" in many.summary(2)
-    assert "1 convergence re-run;" in estimate_run(pts, Numerics(), tmp_path,
+    line = estimate_run(pts, Numerics(), tmp_path, lines=[pts[:2]])  # two points, up and down
+    assert line.convergence_runs == 4
+    assert line.cpu_seconds - base.cpu_seconds == pytest.approx(
+        2 * estimate_run(pts[:2], Numerics(), tmp_path).cpu_seconds)
+    assert "3 convergence / continuation runs" in many.summary(2)
+    assert "1 convergence / continuation run;" in estimate_run(pts, Numerics(), tmp_path,
                                                    convergence=[(pts, ["k_t"], 1)]).summary(2)
 
 
@@ -96,8 +100,8 @@ def test_a_ten_thousand_point_grid_is_planned_by_a_dry_run_and_refused_without_o
     dry = snakemake(work, "-n", "regimes")
     assert dry.returncode == 0, dry.stderr[-2000:]
     # the test workflows' convergence step: one sampled point, one refinement
-    words = ("regimes: 10000 points; to compute: 10000 simulate, 10000 lyapunov, 1 convergence re-run; "
-             "estimated")
+    words = ("regimes: 10000 points; to compute: 10000 simulate, 10000 lyapunov, "
+             "1 convergence / continuation run; estimated")
     assert words in dry.stdout + dry.stderr
     res = snakemake(work, "regimes")
     lines = [ln for ln in (res.stdout + res.stderr).splitlines() if ln.startswith("long run:")]

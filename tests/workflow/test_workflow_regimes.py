@@ -22,11 +22,14 @@ from analysis.regimes import CLASSIFIER_VERSION
 
 #: the convergence step with every refinement, on one sampled point
 CONVERGENCE = {"sample": 1, "seed": 0, "refinements": ["step", "windows", "k_t", "modes"]}
+#: the tiny grid with a two-point continuation line
+GRID_L = yaml.safe_load(yaml.safe_dump(GRID))
+GRID_L["grids"]["tiny"]["lines"] = {"sweep": {"axes": {"f0_rel": [2.0, 3.0]}, "fixed": {"mu_s": 0.5}}}
 
 
 @pytest.fixture(scope="module")
 def first_run(tmp_path_factory):
-    work = setup_workdir(tmp_path_factory.mktemp("regimes"), convergence=CONVERGENCE)
+    work = setup_workdir(tmp_path_factory.mktemp("regimes"), grid=GRID_L, convergence=CONVERGENCE)
     res = snakemake(work, "regimes")
     assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
     return work
@@ -86,8 +89,28 @@ def test_convergence_step_ships_with_the_map(first_run):
     assert json.loads(meta)["config_hash"] == read_regime_metadata(out / "tiny.parquet")["config_hash"]
 
 
+def test_continuation_line_ships_with_the_map(first_run):
+    """A grid's line is swept up and down (each point from its neighbour's end state), with the
+    line's own fixed values on top of the grid's, and drawn."""
+    out = first_run / "results" / "regimes" / "tiny" / "lines"
+    assert (out / "sweep.png").stat().st_size > 0
+    t = pd.read_parquet(out / "sweep.parquet")
+    assert list(t["branch"]) == ["up", "up", "down", "down"] and list(t["f0_rel"]) == [2.0, 3.0] * 2
+    assert list(t["start"]) == ["rest", "continued", "continued", "rest"]
+    assert t["label"].notna().all() and t["lle_verdict"].notna().all()
+    meta = read_regime_metadata(out / "sweep.parquet")
+    assert meta["grid"]["fixed"] == {"mu_s": 0.5} and len(meta["config_hash"]) == 16
+    # the line's own inputs: the grid's fixed values under the line's, the map's numerics
+    assert [pt["mu_s"] for pt in meta["config"]["points"]] == [0.5, 0.5]
+    assert [pt["Omega"] for pt in meta["config"]["points"]] == [2.5, 2.5]
+    map_meta = read_regime_metadata(first_run / "results/regimes/tiny.parquet")
+    assert meta["config"]["version"] == RESULTS_VERSION
+    for key in ("n_transient", "n_record", "n_transient_max"):
+        assert meta["config"]["numerics"][key] == map_meta["config"]["numerics"][key], key
+
+
 def test_adding_a_point_computes_only_the_new_one(first_run, tmp_path):
-    grid = yaml.safe_load(yaml.safe_dump(GRID))
+    grid = yaml.safe_load(yaml.safe_dump(GRID_L))
     grid["grids"]["tiny"]["axes"]["f0_rel"] = [0.5, 1.5, 3.0]
     log_dir = first_run / "logs" / "regimes" / "tiny"
     for old in log_dir.glob("simulate_*.log"):  # count only what this run computes
@@ -100,14 +123,15 @@ def test_adding_a_point_computes_only_the_new_one(first_run, tmp_path):
         computed = sum(int(line.split(" cached, ")[1].split()[0]) for line in logs.splitlines()
                        if " cached, " in line)
         assert computed == 1, logs
+        assert "continuation_line" not in res.stdout + res.stderr  # a line reruns only for its inputs
         table = pd.read_parquet(first_run / "results" / "regimes" / "tiny.parquet")
         assert list(table["f0_rel"]) == [0.5, 1.5, 3.0]
     finally:
-        (first_run / "grid.yaml").write_text(yaml.safe_dump(GRID))  # restore for the other tests
+        (first_run / "grid.yaml").write_text(yaml.safe_dump(GRID_L))  # restore for the other tests
 
 
 def test_same_config_same_table_whatever_the_core_count(first_run, tmp_path):
-    other = setup_workdir(tmp_path / "again", convergence=CONVERGENCE)
+    other = setup_workdir(tmp_path / "again", grid=GRID_L, convergence=CONVERGENCE)
     targets = ("results/regimes/tiny.parquet", "results/regimes/tiny/convergence.parquet")
     res = snakemake(other, *targets, cores=1)
     assert res.returncode == 0, res.stderr[-3000:]
@@ -149,6 +173,14 @@ def test_same_table_whatever_the_chunk_size(first_run, tmp_path):
          "mu_s must be >= mu_k"),
         ({"grids": {"g": {"axes": {"Omega": [1.0]}, "fixed": {"f0": 1e-5}}}}, "only one of f0 and f0_rel"),
         ({"grids": {"g": {"axes": {"Omega": [1.0]}, "fixed": {"Omega": 2.0}}}}, "both as axis and as fixed"),
+        # continuation lines: one axis, one state size, valid values
+        ({"grids": {"g": {"axes": {"Omega": [1.0]}, "lines": {"l": {"axes": {"n_modes": [1, 2]}}}}}},
+         "grids.g.lines.l: a continuation line needs one state size"),
+        ({"grids": {"g": {"axes": {"Omega": [1.0]},
+                          "lines": {"l": {"axes": {"Omega": [1.0], "f0_rel": [1.0]}}}}}},
+         "grids.g.lines.l.axes"),
+        ({"grids": {"g": {"axes": {"Omega": [1.0]}, "lines": {"l": {"axes": {"Omega": [1.0, -1.0]}}}}}},
+         "grids.g.lines.l.axes.Omega = -1.0"),
     ],
 )
 def test_bad_grid_is_one_line_before_any_job(tmp_path, grid, expected):

@@ -10,6 +10,7 @@ from analysis.paper.runs import RUN_ITEMS as PAPER_RUN_ITEMS
 from analysis.paper.runs import stribeck_constants
 from analysis.paper.tables import paper_config_hash
 from analysis.pipeline.cost import estimate_run
+from analysis.pipeline.grid import RESULTS_VERSION
 from analysis.pipeline.plan import build_plan
 from analysis.pipeline.preflight import check_results_dir, check_run_length
 from analysis.regimes import CLASSIFIER_VERSION
@@ -50,8 +51,10 @@ if workflow.is_main_process:  # not in the per-job processes of a cluster execut
          CONVERGENCE.sample)
         for g in GRIDS["grids"]
     ]
+    PENDING_LINES = [pts for g, lines in PLAN.lines.items() for line, pts in lines.items()
+                     if not Path(f"results/regimes/{g}/lines/{line}.parquet").exists()]
     ESTIMATE = estimate_run([p for pts in POINTS.values() for p in pts], PLAN.numerics, STORE_ROOT,
-                            convergence=PENDING_CONVERGENCE)
+                            convergence=PENDING_CONVERGENCE, lines=PENDING_LINES)
     logger.info(f"regimes: {ESTIMATE.summary(workflow.global_resources.get('_cores') or 1)}")
 
 
@@ -139,3 +142,23 @@ def paper_figure_settings(wildcards) -> dict:
 def paper_table_input(item: str) -> list[str]:
     """The measured table a paper item's figures are drawn from (none for modes and fig12)."""
     return [f"results/paper/{item}/measured.parquet"] if item in PAPER_RUN_ITEMS else []
+
+
+def line_points(wildcards) -> list[dict]:
+    """The parameters of a continuation line's points, in axis order."""
+    return [p.params for p in PLAN.lines[wildcards.grid][wildcards.line]]
+
+
+def line_axis(wildcards) -> str:
+    return next(iter(GRIDS["grids"][wildcards.grid]["lines"][wildcards.line]["axes"]))
+
+
+def line_mode_files(wildcards) -> list[str]:
+    """The cached modes the points of a continuation line need."""
+    keys = sorted({model_cache_key(p) for p in line_points(wildcards)})
+    return [f"results/modes/{k}/modes.parquet" for k in keys]
+
+
+def line_files(suffix: str) -> list[str]:
+    """Every continuation line's output with ``suffix`` (``.parquet``, ``.png``)."""
+    return [f"results/regimes/{g}/lines/{line}{suffix}" for g, lines in PLAN.lines.items() for line in lines]

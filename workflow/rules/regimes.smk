@@ -149,6 +149,50 @@ rule convergence_figure:
         "../scripts/convergence_figure.py"
 
 
+rule continuation_line:
+    input:
+        modes=line_mode_files,
+        kernels=ancient(["results/kernels/simulate.done", "results/kernels/lyapunov.done"]),
+    output:
+        table="results/regimes/{grid}/lines/{line}.parquet",
+    params:
+        points=line_points,
+        axis=line_axis,
+        version=RESULTS_VERSION,  # a code change that alters results reruns the line
+        line=lambda wc: GRIDS["grids"][wc.grid]["lines"][wc.line],
+        numerics=RESULT_NUMERICS,
+    threads: 2
+    log:
+        "logs/regimes/{grid}/line_{line}.log",
+    conda:
+        "../envs/beamsim.yaml"
+    script:
+        "../scripts/continuation_line.py"
+
+
+rule continuation_figure:
+    input:
+        table="results/regimes/{grid}/lines/{line}.parquet",
+    output:
+        figure=report(
+            "results/regimes/{grid}/lines/{line}.png",
+            caption="../report/continuation.rst",
+            category="Regime maps",
+            subcategory="{grid}",
+        ),
+    params:
+        axis=line_axis,
+        line=lambda wc: GRIDS["grids"][wc.grid]["lines"][wc.line],
+        numerics=RESULT_NUMERICS,
+        dpi=config.get("figures", {}).get("dpi", 130),
+    log:
+        "logs/regimes/{grid}/line_{line}_figure.log",
+    conda:
+        "../envs/beamsim.yaml"
+    script:
+        "../scripts/continuation_figure.py"
+
+
 rule regime_figures:
     input:
         table="results/regimes/{grid}.parquet",
@@ -209,3 +253,5 @@ rule regimes:
         expand("results/regimes/{grid}/portraits.png", grid=list(GRIDS["grids"])),
         expand("results/regimes/{grid}/convergence.png",
                grid=list(GRIDS["grids"]) if CONVERGENCE.active else []),
+        line_files(".parquet"),
+        line_files(".png"),

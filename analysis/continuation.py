@@ -1,0 +1,122 @@
+r"""Continuation sweeps along a 1-D line of parameter points, up and down.
+
+A regime map starts every point from rest; a beam with dry friction is hysteretic and
+multistable (slip locked into stuck elements, coexisting attractors), so which attractor a
+point shows can depend on where it came from.  :func:`continuation_sweeps` runs a line of
+points twice, in both directions: the up-sweep starts its first point from rest and every next
+point from the previous point's end state (coordinates, velocities, Jenkins slips and stick
+flags: the full state, so the restart is exact), the down-sweep the same from the last point
+backwards.  Both chains advance together, one point each per step (a batch of two: two
+threads), each point with the pipeline's own numerics and stages (adaptive transient, long
+Benettin record with its block statistics, classifier).  A chain whose run diverged restarts
+its next point from rest (``start`` says so).
+
+Where the two branches disagree the line is hysteretic; a bifurcation diagram with both
+branches and their ``lambda_1`` curves (:func:`analysis.figures.continuation.plot_continuation`)
+shows where.  Deterministic: the same line and numerics give the same table.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pandas as pd
+
+from analysis.pipeline.config import Numerics, as_numerics
+
+__all__ = ["BRANCHES", "continuation_sweeps", "hysteresis"]
+
+#: the two sweep directions, in table order
+BRANCHES = ("up", "down")
+
+
+def _state_params(final_state: np.ndarray, n: int, nq: int) -> dict:
+    """Initial-state parameters (``q0``, ``v0``, ``z0``, ``mode0``) of a final state, or ``{}``
+    (rest) when it is not finite."""
+    x = np.asarray(final_state, dtype=float)
+    if x.size != 2 * n + 2 * nq or not np.all(np.isfinite(x)):
+        return {}
+    return {"q0": x[:n].copy(), "v0": x[n:2 * n].copy(), "z0": x[2 * n:2 * n + nq].copy(),
+            "mode0": x[2 * n + nq:].copy()}
+
+
+def continuation_sweeps(points: Sequence[dict], numerics: Numerics | dict, *, axis: str,
+                        threads: int = 2) -> pd.DataFrame:
+    """Up- and down-sweep of ``points`` (parameter dicts in axis order, one state size).
+
+    Returns one row per branch and point (``up`` rows in axis order, then ``down`` rows in axis
+    order): ``branch``, ``k`` (position on the line), ``axis`` value, ``start`` (``rest`` or
+    ``continued``), ``label``, ``period``, ``lle_T``, ``lle_lo_T``, ``lle_hi_T`` (per forcing
+    period), ``lle_verdict``, ``reason``, ``n_transient_used``, ``slipped``, ``poincare_w_tip``
+    (the tip's stroboscopic samples), ``poincare_state`` (the full state's) and ``diverged``.
+    """
+    from analysis.pipeline.stages import classify_points, lyapunov_runs, records_table, simulate_runs
+    from beamsim.simulate import prepare_point
+
+    nm = as_numerics(numerics)
+    n_pts = len(points)
+    if n_pts == 0:
+        raise ValueError("continuation_sweeps: no points")
+    model = prepare_point(**points[0]).model
+    n, nq = model.n, model.n_quad
+    order = {"up": list(range(n_pts)), "down": list(range(n_pts - 1, -1, -1))}
+    prev: dict = {b: None for b in BRANCHES}
+    sims: dict = {}
+    starts: dict = {}
+    for step in range(n_pts):
+        batch = []
+        for b in BRANCHES:
+            k = order[b][step]
+            init = {} if prev[b] is None else _state_params(prev[b], n, nq)
+            starts[(b, k)] = "continued" if init else "rest"
+            batch.append({"point_id": f"{b}{k:05d}", "params": dict(points[k]) | init})
+        for p, rec in zip(batch, simulate_runs(batch, nm, threads)):
+            b, k = p["point_id"][:-5], int(p["point_id"][-5:])
+            sims[(b, k)] = (p, rec)
+            prev[b] = rec["final_state"]
+    keys = [(b, k) for b in BRANCHES for k in range(n_pts)]
+    pts = [sims[key][0] for key in keys]
+    recs = [sims[key][1] for key in keys]
+    sim_df = records_table(pts, recs)
+    lyap = lyapunov_runs(pts, sim_df.set_index("point_id"), nm, threads)
+    lab = classify_points(sim_df, records_table(pts, lyap), lle_threshold=nm.lyapunov.margin)
+    rows = []
+    for (b, k), rec, ly, (_, c) in zip(keys, recs, lyap, lab.iterrows()):
+        period_t = 2.0 * np.pi / float(rec["omega"])
+        tip = np.asarray(rec["poincare_tip"], dtype=float)
+        rows.append({"branch": b, "k": k, axis: points[k][axis], "start": starts[(b, k)],
+                     "label": c["label"], "period": c["period"],
+                     "lle_T": float(ly["lle_mean"]) * period_t, "lle_lo_T": float(ly["lle_lo"]) * period_t,
+                     "lle_hi_T": float(ly["lle_hi"]) * period_t, "lle_verdict": ly["lle_verdict"],
+                     "reason": c["reason"], "n_transient_used": int(rec["n_transient_used"]),
+                     "slipped": bool(rec["slipped"]), "diverged": bool(rec["diverged"]),
+                     "poincare_w_tip": tip[:, 0].tolist() if tip.ndim == 2 and tip.size else [],
+                     "poincare_state": np.asarray(rec["poincare_state"], dtype=float).tolist()})
+    out = pd.DataFrame(rows)
+    out["period"] = out["period"].astype("Int64")
+    return out
+
+
+def hysteresis(table: pd.DataFrame, axis: str) -> pd.DataFrame:
+    """Per point of a line, the up and down labels side by side: ``label_up``, ``label_down``,
+    ``differs`` (another regime, or another period) and ``same_attractor`` (the two branches'
+    Poincare records are one set, :func:`analysis.attractors.group_records`: two attractors of
+    the same label -- e.g. chaotic sets shifted by slip locked into stuck elements -- count
+    as different; ``None`` where a record is missing or not finite)."""
+    from analysis.attractors import group_records
+    from analysis.pipeline.convergence import label_text
+
+    t = table.assign(text=[label_text(lab, per) for lab, per in zip(table["label"], table["period"])])
+    up = t[t["branch"] == "up"].set_index("k")
+    down = t[t["branch"] == "down"].set_index("k")
+    out = pd.DataFrame({axis: up[axis], "label_up": up["text"], "label_down": down["text"]})
+    out["differs"] = out["label_up"] != out["label_down"]
+    same = []
+    for k in out.index:
+        recs = [np.asarray([np.asarray(r, dtype=float) for r in b.loc[k, "poincare_state"]])
+                if "poincare_state" in b.columns else np.zeros((0, 0)) for b in (up, down)]
+        ok = all(r.ndim == 2 and r.size and np.all(np.isfinite(r)) for r in recs)
+        same.append(len(group_records(recs)) == 1 if ok else None)
+    out["same_attractor"] = same
+    return out.reset_index()
