@@ -193,6 +193,11 @@ def same_label(label: str, period, other: str, other_period) -> bool:
     return label_text(label, period) == label_text(other, other_period)
 
 
+def _num(value) -> float:
+    """A table value as a float, NaN for a missing one (diverged points carry ``None``)."""
+    return np.nan if value is None or pd.isna(value) else float(value)
+
+
 def convergence_runs(table: pd.DataFrame, refinement: str, numerics: Numerics | dict,
                      settings: ConvergenceSettings, store_root: str, axes: Sequence[str] = (),
                      threads: int = 1) -> pd.DataFrame:
@@ -201,7 +206,8 @@ def convergence_runs(table: pd.DataFrame, refinement: str, numerics: Numerics | 
     Returns one row per sampled point (the table's order): ``point_id`` (the map's),
     ``refinement``, the ``axes`` values, ``weight``, ``label``/``period``/``lle_T``/``lle_lo_T``/
     ``lle_hi_T`` of the map and ``refined_*`` of the refined run (``lambda_1 T`` per forcing
-    period), ``refined_reason``, ``refined_point_id`` and ``holds`` (the labels are equal).
+    period; NaN where not measured), ``refined_reason``, ``refined_point_id`` and ``holds``
+    (:func:`same_label`: the same regime and, for a periodic orbit, the same period).
     """
     from analysis.pipeline.stages import classify_points, lle_resolution, lyapunov_points, simulate_points
 
@@ -233,12 +239,12 @@ def convergence_runs(table: pd.DataFrame, refinement: str, numerics: Numerics | 
         row |= {a: base[a] for a in axes}
         row |= {"weight": float(base["weight"]),
                 "label": base["label"], "period": base["period"],
-                "lle_T": float(base["lle_mean"]) * t_base, "lle_lo_T": float(base["lle_lo"]) * t_base,
-                "lle_hi_T": float(base["lle_hi"]) * t_base,
+                "lle_T": _num(base["lle_mean"]) * t_base, "lle_lo_T": _num(base["lle_lo"]) * t_base,
+                "lle_hi_T": _num(base["lle_hi"]) * t_base,
                 "refined_label": m["label"], "refined_period": m["period"],
-                "refined_lle_T": float(m["lle_mean"]) * t_ref,
-                "refined_lle_lo_T": float(m["lle_lo"]) * t_ref,
-                "refined_lle_hi_T": float(m["lle_hi"]) * t_ref,
+                "refined_lle_T": _num(m["lle_mean"]) * t_ref,
+                "refined_lle_lo_T": _num(m["lle_lo"]) * t_ref,
+                "refined_lle_hi_T": _num(m["lle_hi"]) * t_ref,
                 "refined_reason": m["reason"], "refined_point_id": r["point_id"],
                 "holds": same_label(base["label"], base["period"], m["label"], m["period"])}
         rows.append(row)

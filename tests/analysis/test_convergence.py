@@ -13,6 +13,7 @@ import yaml
 
 from analysis.pipeline.config import Numerics
 from analysis.pipeline.convergence import (
+    MAX_MODES,
     REFINEMENTS,
     ConvergenceSettings,
     convergence_runs,
@@ -132,6 +133,7 @@ def test_settings_defaults_are_the_shipped_config_and_bad_values_are_refused():
     assert {k: v["default"] for k, v in props.items()} == {"sample": 20, "seed": 0,
                                                            "refinements": list(REFINEMENTS)}
     assert ConvergenceSettings.from_dict({}) == ConvergenceSettings()
+    assert schema["$defs"]["model"]["properties"]["n_modes"]["maximum"] == MAX_MODES
     assert ConvergenceSettings.from_dict({"sample": 0}).active == ()
     for bad, match in (({"sample": -1}, "sample"), ({"refinements": ["dt"]}, "refinements"),
                        ({"refinements": ["k_t", "k_t"]}, "twice"), ({"size": 3}, "unknown")):
