@@ -13,16 +13,10 @@ import pandas as pd
 from matplotlib.colors import ListedColormap
 from matplotlib.patches import Patch
 
-from analysis.figures.regimes import LABEL_COLOURS, _axis_label
+from analysis.figures.regimes import LABEL_COLOURS, _axis_label, _edges, label_key
 
 #: colour of each sweep direction
 BRANCH_COLOURS = {"up": "#1f77b4", "down": "#d62728"}
-
-
-def _key(label, period) -> str:
-    if label == "periodic" and pd.notna(period) and int(period) > 1:
-        return "periodic (m > 1)"
-    return str(label)
 
 
 def plot_continuation(table: pd.DataFrame, axis: str, line: dict, name: str, path: str,
@@ -55,16 +49,12 @@ def plot_continuation(table: pd.DataFrame, axis: str, line: dict, name: str, pat
     keys = list(LABEL_COLOURS)
     codes = {k: i for i, k in enumerate(keys)}
     xs = np.sort(table[axis].unique())
-    v = np.log(xs) if log else xs
-    mid = 0.5 * (v[1:] + v[:-1]) if v.size > 1 else np.array([])
-    edges = np.concatenate([[v[0] - (mid[0] - v[0]) if mid.size else v[0] - 0.5], mid,
-                            [v[-1] + (v[-1] - mid[-1]) if mid.size else v[-1] + 0.5]])
-    edges = np.exp(edges) if log else edges
+    edges = _edges(xs, log)
     z = np.full((2, xs.size), np.nan)
     for row, b in enumerate(("up", "down")):
         t = table[table["branch"] == b]
         for x, lab, per in zip(t[axis], t["label"], t["period"]):
-            z[row, np.searchsorted(xs, x)] = codes[_key(lab, per)]
+            z[row, np.searchsorted(xs, x)] = codes[label_key(lab, per)]
     ax1.pcolormesh(edges, [0, 1, 2], z, cmap=ListedColormap(list(LABEL_COLOURS.values())),
                    vmin=-0.5, vmax=len(keys) - 0.5, edgecolors="white", linewidth=0.3)
     ax1.set_yticks([0.5, 1.5], ["up", "down"], fontsize=8)

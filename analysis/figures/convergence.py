@@ -13,16 +13,10 @@ import pandas as pd
 from matplotlib.colors import ListedColormap
 from matplotlib.patches import Patch
 
-from analysis.figures.regimes import LABEL_COLOURS
+from analysis.figures.regimes import LABEL_COLOURS, label_key
 
 #: the fraction of sampled points whose label must hold under every refinement (issue target)
 HOLD_TARGET = 0.95
-
-
-def _key(label, period) -> str:
-    if label == "periodic" and pd.notna(period) and int(period) > 1:
-        return "periodic (m > 1)"
-    return str(label)
 
 
 def plot_convergence(runs: pd.DataFrame, summary: pd.DataFrame, grid_name: str, axes: list[str],
@@ -55,13 +49,13 @@ def plot_convergence(runs: pd.DataFrame, summary: pd.DataFrame, grid_name: str, 
     changed = np.zeros_like(z, dtype=bool)
     names = []
     for i, (_, p) in enumerate(points.iterrows()):
-        z[i, 0] = codes[_key(p["label"], p["period"])]
+        z[i, 0] = codes[label_key(p["label"], p["period"])]
         names.append(", ".join(f"{a}={p[a]:.3g}" for a in axes) if axes else p["point_id"][:8])
         for j, ref in enumerate(refs):
             r = runs[(runs["point_id"] == p["point_id"]) & (runs["refinement"] == ref)]
             if len(r):
                 r = r.iloc[0]
-                z[i, j + 1] = codes[_key(r["refined_label"], r["refined_period"])]
+                z[i, j + 1] = codes[label_key(r["refined_label"], r["refined_period"])]
                 changed[i, j + 1] = not bool(r["holds"])
     cmap = ListedColormap(list(LABEL_COLOURS.values()))
     ax1.pcolormesh(np.arange(len(refs) + 2) - 0.5, np.arange(n_pts + 1) - 0.5, z, cmap=cmap,

@@ -41,10 +41,15 @@ PARAM_LABELS = {
 }
 
 
-def _label_key(row) -> str:
-    if row["label"] == "periodic" and pd.notna(row["period"]) and int(row["period"]) > 1:
+def label_key(label, period) -> str:
+    """The :data:`LABEL_COLOURS` key of a label: periodic orbits of period > 1 get their own."""
+    if label == "periodic" and pd.notna(period) and int(period) > 1:
         return "periodic (m > 1)"
-    return str(row["label"])
+    return str(label)
+
+
+def _label_key(row) -> str:
+    return label_key(row["label"], row["period"])
 
 
 def _axis_label(name: str) -> str:
