@@ -5,7 +5,7 @@ PYTHON ?= python3
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test setup clean-venv
+.PHONY: run test bench setup clean-venv
 
 setup: $(STAMP)
 
@@ -23,6 +23,18 @@ run: $(STAMP)
 # Whole test suite.
 test: $(STAMP)
 	$(BIN)/python -m pytest -n 2 --dist loadfile --durations=15
+
+# Simulator benchmark against its strongest peers (docs/performance.md, <= 5 minutes).  The
+# compiled peer numbalsoda builds from source with a Fortran compiler (Debian: gfortran).
+BENCH_STAMP := $(VENV)/.bench-installed
+
+$(BENCH_STAMP): $(STAMP)
+	command -v gfortran >/dev/null || { apt-get update && apt-get install -y gfortran; }
+	$(BIN)/python -m pip install -e '.[bench]'
+	touch $@
+
+bench: $(BENCH_STAMP)
+	$(BIN)/python benchmarks/simulate.py
 
 clean-venv:
 	rm -rf $(VENV)

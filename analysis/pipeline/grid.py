@@ -25,7 +25,8 @@ import numpy as np
 from analysis.pipeline.config import Numerics, as_numerics
 
 #: bump when a code change alters results for unchanged parameters (invalidates all ids)
-RESULTS_VERSION = "6"  # 6: adaptive transients, block statistics of lambda_1
+RESULTS_VERSION = "7"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
+#                        conjugate pairs with damping, kernels with reassociated sums
 
 
 def _canonical(value):

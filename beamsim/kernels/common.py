@@ -4,6 +4,8 @@ Units and equations: docs/model.md.  ``pt`` is a :data:`~beamsim.kernels.bundles
 ``x`` a :data:`~beamsim.kernels.bundles.State`, ``tally`` a
 :data:`~beamsim.kernels.bundles.Tally`, ``sched`` a :data:`~beamsim.kernels.bundles.Schedule`,
 ``out`` the batch's :data:`~beamsim.kernels.bundles.Outputs` and ``p`` the point's row in it.
+
+Hot kernels are compiled with :data:`~beamsim.kernels.bundles.LEAF`'s floating-point flags.
 """
 
 from __future__ import annotations

@@ -1,5 +1,8 @@
 """A drive trajectory and perturbed / coupled copies of it, stepped together with the RK4
-reference step (the method is described in :mod:`beamsim.coupled_copies`, the public entry)."""
+reference step (the method is described in :mod:`beamsim.coupled_copies`, the public entry).
+
+Hot kernels are compiled with :data:`~beamsim.kernels.bundles.LEAF`'s floating-point flags.
+"""
 
 from __future__ import annotations
 

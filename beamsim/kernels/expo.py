@@ -33,23 +33,69 @@ from beamsim.results import FLAG_N_CHECKS, FLAG_N_EVENTS, FLAG_N_PATTERNS
 
 #: eigen-decompositions of ``C`` stick patterns: pattern bit keys, eigenvalues ``lam``, ``V``,
 #: ``V^-1``, the slips and slip rates of the modes ``SVq = S V_q``, ``SVv = S V_v``, the load
-#: power rows ``cg = g V_v`` and the modal load ``gam = V^-1 [0; M^-1 g]``
-PatternCache = namedtuple("PatternCache", ("keys", "lam", "V", "Vi", "SVq", "SVv", "cg", "gam"))
+#: power rows ``cg = g V_v``, the modal load ``gam = V^-1 [0; M^-1 g]``; the mode order
+#: (:func:`_pair_conjugates`): ``nc`` modes with ``Im lam > 0``, then the real ones, up to
+#: ``nh``, then the conjugates of the first ``nc``; ``wt`` the weight of each of the first
+#: ``nh`` modes in a real sum (2: the mode and its conjugate, 1: a real mode)
+PatternCache = namedtuple("PatternCache", ("keys", "lam", "V", "Vi", "SVq", "SVv", "cg", "gam",
+                                           "nh", "nc", "wt"))
 
 #: one pattern's entries of the cache
-Modes = namedtuple("Modes", ("lam", "V", "Vi", "SVq", "SVv", "cg", "gam"))
+Modes = namedtuple("Modes", ("lam", "V", "Vi", "SVq", "SVv", "cg", "gam", "nh", "nc", "wt"))
 
 #: per-point scratch: permanently free elements, stuck set, real state ``xr``, modal states
 #: ``zeta0`` (interval start), ``zeta`` (current), ``ztmp``, modal forcing ``beta``, the
 #: interface load ``rv``, rate bounds ``r1, r2`` and ``rate``, modal rate ``zdot``, slips
 #: ``sbuf``, slip rates ``sdbuf``, event functions ``fcur, fprev``, counters ``cnt`` (filled
-#: cache slots, decompositions, events, checks); ``nh`` modes evaluated (undamped: half,
-#: the other half are conjugates), ``fac`` = 2 or 1, ``n_sub`` checks per step at least
+#: cache slots, decompositions, events, checks); ``n_sub`` checks per step at least
 ExpoWork = namedtuple("ExpoWork", ("free", "stuck", "xr", "zeta0", "zeta", "ztmp", "beta", "rv",
                                    "r1", "r2", "zdot", "sbuf", "sdbuf", "fcur", "fprev", "rate",
-                                   "cnt", "nh", "fac", "n_sub"))
+                                   "cnt", "n_sub"))
 
 _FILLED, _N_EIG, _N_EVENTS, _N_CHECKS = 0, 1, 2, 3
+
+
+@njit(cache=True)
+def _pair_conjugates(lam, V):
+    """Order the modes of a real first-order matrix as ``nc`` modes with ``Im lam > 0``, the
+    real modes, then the ``nc`` conjugates (set to the exact conjugates of the first ``nc``, as
+    they are in exact arithmetic), so that real sums need only the first ``nh = n2 - nc``
+    terms, each of the first ``nc`` twice.  Returns ``(lam, V, nh, nc)``; if the eigenvalues do
+    not pair up (``nc`` above, ``nc`` below the real axis) the order is kept with ``nc = 0``."""
+    n2 = lam.shape[0]
+    tol = 0.0
+    for k in range(n2):
+        tol = max(tol, abs(lam[k]))
+    tol = 1e-10 * (tol + 1.0)
+    pos = np.empty(n2, np.int64)
+    rl = np.empty(n2, np.int64)
+    npos = nneg = nrl = 0
+    for k in range(n2):
+        if lam[k].imag > tol:
+            pos[npos] = k
+            npos += 1
+        elif lam[k].imag < -tol:
+            nneg += 1
+        else:
+            rl[nrl] = k
+            nrl += 1
+    if npos != nneg:
+        return lam, V, n2, 0
+    lam2 = np.empty(n2, np.complex128)
+    V2 = np.empty_like(V)
+    for i in range(npos):
+        k = pos[i]
+        lam2[i] = lam[k]
+        lam2[npos + nrl + i] = np.conj(lam[k])
+        for a in range(n2):
+            V2[a, i] = V[a, k]
+            V2[a, npos + nrl + i] = np.conj(V[a, k])
+    for i in range(nrl):
+        k = rl[i]
+        lam2[npos + i] = lam[k].real
+        for a in range(n2):
+            V2[a, npos + i] = V[a, k]
+    return lam2, V2, npos + nrl, npos
 
 
 @njit(cache=True)
@@ -57,8 +103,9 @@ def _pattern(stuck, pt):
     """Eigen-decomposition ``A = V diag(lam) V^-1`` of the first-order matrix of the linear system
     with the stuck set ``stuck`` (springs k_t at the stuck points).  Undamped: from the real
     symmetric problem ``K_P phi = omega^2 M phi`` (lam = +-i omega, V and V^-1 in closed
-    form); damped: complex eigen-decomposition.  Eigenvalues within 1e-9 of +-i omega_f are
-    shifted by -1e-9 (|lam| + omega_f) (exact-resonance guard)."""
+    form); damped: complex eigen-decomposition, conjugate pairs ordered by
+    :func:`_pair_conjugates`.  Eigenvalues within 1e-9 of +-i omega_f are shifted by
+    -1e-9 (|lam| + omega_f) (exact-resonance guard).  Returns the :data:`Modes` entries."""
     Mm, Km, S, wq, kt, g, om = pt.Mm, pt.Km, pt.S, pt.wq, pt.kt, pt.g, pt.om
     n = Km.shape[0]
     nq = S.shape[0]
@@ -102,11 +149,17 @@ def _pattern(stuck, pt):
                 A[n + a, b] = -MK[a, b]
                 A[n + a, n + b] = -MC[a, b]
         lam, V = np.linalg.eig(A)
+        lam, V, nh, nc = _pair_conjugates(lam, V)
         Vi = np.linalg.inv(V)
+    if not pt.damp:
+        nh = nc = n
     for k in range(n2):
         tol = 1e-9 * (abs(lam[k]) + om)
         if abs(lam[k] - 1j * om) < tol or abs(lam[k] + 1j * om) < tol:
             lam[k] = lam[k] - tol
+    wt = np.zeros(n2)
+    for k in range(nh):
+        wt[k] = 2.0 if k < nc else 1.0
     Sc = S.astype(np.complex128)
     SVq = Sc @ np.ascontiguousarray(V[:n, :])
     SVv = Sc @ np.ascontiguousarray(V[n:, :])
@@ -114,7 +167,7 @@ def _pattern(stuck, pt):
     cg = gc @ np.ascontiguousarray(V[n:, :])
     Mg = (pt.Minv @ g).astype(np.complex128)
     gam = np.ascontiguousarray(Vi[:, n:]) @ Mg
-    return lam, V, Vi, SVq, SVv, cg, gam
+    return lam, V, Vi, SVq, SVv, cg, gam, nh, nc, wt
 
 
 @njit(cache=True, inline="always")
@@ -139,8 +192,8 @@ def _psi(lk, mu, tau, el, emu):
 @njit(**LEAF, inline="always")
 def _zeta_at(tau, md, wk, t0, pt, out):
     """Modal state at ``t0 + tau`` of the interval that started at ``t0`` in ``wk.zeta0`` (only
-    the first ``wk.nh`` terms: undamped systems store conjugate pairs k, n + k, and the second
-    half is never needed in the hot loops)."""
+    the first ``md.nh`` terms: the others are conjugates of the first ``md.nc``, never needed
+    in the hot loops)."""
     f0, om = pt.f0, pt.om
     lam, gam, z0, beta = md.lam, md.gam, wk.zeta0, wk.beta
     ep = np.exp(1j * om * t0)
@@ -148,7 +201,7 @@ def _zeta_at(tau, md, wk, t0, pt, out):
     eip = np.exp(1j * om * tau)
     eim = np.conj(eip)
     io = 1j * om
-    for k in range(wk.nh):
+    for k in range(md.nh):
         lk = lam[k]
         el = np.exp(lk * tau)
         ph = _phi_e(lk, tau, el)
@@ -196,32 +249,31 @@ def _work(tau1, md, wk, t0, pt):
 def _cond(j, zeta, md, x, pt, wk):
     """Event function of element j at the modal state ``zeta`` (> 0: the current stick/slip
     state is violated)."""
+    wt = md.wt
     if x.mode[j] == 0:
         s = 0.0
-        for k in range(wk.nh):
-            s += (md.SVq[j, k] * zeta[k]).real
-        return abs(pt.kt * (wk.fac * s - x.z[j])) - pt.tau_s[j] * (1.0 + 1e-12)
+        for k in range(md.nh):
+            s += wt[k] * (md.SVq[j, k] * zeta[k]).real
+        return abs(pt.kt * (s - x.z[j])) - pt.tau_s[j] * (1.0 + 1e-12)
     sd = 0.0
-    for k in range(wk.nh):
-        sd += (md.SVv[j, k] * zeta[k]).real
-    return -x.mode[j] * wk.fac * sd
+    for k in range(md.nh):
+        sd += wt[k] * (md.SVv[j, k] * zeta[k]).real
+    return -x.mode[j] * sd
 
 
 @njit(**LEAF, inline="always")
 def _conds(zeta, md, x, pt, wk):
     """All event functions at the modal state ``zeta`` into ``wk.fcur`` (slips and slip rates
     into ``wk.sbuf, wk.sdbuf``); returns True if any is violated."""
-    SVq, SVv, nh, fac = md.SVq, md.SVv, wk.nh, wk.fac
+    SVq, SVv, nh, wt = md.SVq, md.SVv, md.nh, md.wt
     fout = wk.fcur
     hit = False
     for j in range(SVq.shape[0]):
         s = 0.0
         sd = 0.0
         for k in range(nh):
-            s += (SVq[j, k] * zeta[k]).real
-            sd += (SVv[j, k] * zeta[k]).real
-        s *= fac
-        sd *= fac
+            s += wt[k] * (SVq[j, k] * zeta[k]).real
+            sd += wt[k] * (SVv[j, k] * zeta[k]).real
         wk.sbuf[j] = s
         wk.sdbuf[j] = sd
         if wk.free[j]:
@@ -249,7 +301,7 @@ def _pattern_key(wk, x):
 @njit(cache=True)
 def _fill_slot(key, cache, wk, pt):
     """Eigen-decompose the pattern ``wk.stuck`` (bit key ``key``) into a cache slot; returns it."""
-    lam_, V_, Vi_, SVq_, SVv_, cg_, gam_ = _pattern(wk.stuck, pt)
+    lam_, V_, Vi_, SVq_, SVv_, cg_, gam_, nh_, nc_, wt_ = _pattern(wk.stuck, pt)
     cnt = wk.cnt
     cnt[_N_EIG] += 1
     C = cache.keys.shape[0]
@@ -266,6 +318,9 @@ def _fill_slot(key, cache, wk, pt):
     cache.SVv[slot] = SVv_
     cache.cg[slot] = cg_
     cache.gam[slot] = gam_
+    cache.nh[slot] = nh_
+    cache.nc[slot] = nc_
+    cache.wt[slot] = wt_
     return slot
 
 
@@ -315,7 +370,7 @@ def _rate_bounds(t0, md, wk, x, pt):
     ep = np.exp(1j * om * t0)
     io = 1j * om
     lmax = 0.0
-    for k in range(wk.nh):
+    for k in range(md.nh):
         lk = lam[k]
         fg = f0 * gam[k]
         Ck = fg * 0.5 * ep / (io - lk)
@@ -329,13 +384,13 @@ def _rate_bounds(t0, md, wk, x, pt):
     for j in range(x.z.shape[0]):
         acc = 0.0
         if x.mode[j] == 0:
-            for k in range(wk.nh):
-                acc += abs(md.SVq[j, k]) * r1[k]
-            wk.rate[j] = pt.kt * wk.fac * acc
+            for k in range(md.nh):
+                acc += md.wt[k] * abs(md.SVq[j, k]) * r1[k]
+            wk.rate[j] = pt.kt * acc
         else:
-            for k in range(wk.nh):
-                acc += abs(md.SVq[j, k]) * r2[k]
-            wk.rate[j] = wk.fac * acc
+            for k in range(md.nh):
+                acc += md.wt[k] * abs(md.SVq[j, k]) * r2[k]
+            wk.rate[j] = acc
     return lmax
 
 
@@ -347,7 +402,7 @@ def _next_check(lo, t0, d_max, d_min, md, wk, x, pt):
     dlt = d_max
     # zeta' = lam zeta + beta + gam F(t) at the current check
     Fc = pt.f0 * (math.cos(pt.om * (t0 + lo)) - 1.0)
-    for k in range(wk.nh):
+    for k in range(md.nh):
         wk.zdot[k] = md.lam[k] * wk.zeta[k] + wk.beta[k] + md.gam[k] * Fc
     for j in range(x.z.shape[0]):
         fj = wk.fcur[j]
@@ -357,9 +412,9 @@ def _next_check(lo, t0, d_max, d_min, md, wk, x, pt):
             d1 = pt.kt * wk.sdbuf[j] if wk.sbuf[j] - x.z[j] >= 0.0 else -pt.kt * wk.sdbuf[j]
         else:
             sdd = 0.0
-            for k in range(wk.nh):
-                sdd += (md.SVv[j, k] * wk.zdot[k]).real
-            d1 = -x.mode[j] * wk.fac * sdd
+            for k in range(md.nh):
+                sdd += md.wt[k] * (md.SVv[j, k] * wk.zdot[k]).real
+            d1 = -x.mode[j] * sdd
         M2 = wk.rate[j]
         if M2 > 0.0:
             dj = (-d1 + math.sqrt(d1 * d1 - 2.0 * M2 * fj)) / M2
@@ -490,25 +545,24 @@ def _new_work(pt, n_sub, cache_size):
     cache = PatternCache(np.full(C, -1, np.int64), np.empty((C, n2), np.complex128),
                          np.empty((C, n2, n2), np.complex128), np.empty((C, n2, n2), np.complex128),
                          np.empty((C, nq, n2), np.complex128), np.empty((C, nq, n2), np.complex128),
-                         np.empty((C, n2), np.complex128), np.empty((C, n2), np.complex128))
+                         np.empty((C, n2), np.complex128), np.empty((C, n2), np.complex128),
+                         np.zeros(C, np.int64), np.zeros(C, np.int64), np.zeros((C, n2)))
     free = np.zeros(nq, np.bool_)
     for j in range(nq):
         free[j] = pt.tau_s[j] <= 0.0
-    # undamped: modes k and n + k are complex conjugate pairs -> evaluate the first half only
-    nh = n if not pt.damp else n2
-    fac = 2.0 if not pt.damp else 1.0
     wk = ExpoWork(free, np.zeros(nq, np.bool_), np.empty(n2), np.empty(n2, np.complex128),
                   np.empty(n2, np.complex128), np.empty(n2, np.complex128),
                   np.empty(n2, np.complex128), np.empty(n), np.empty(n2), np.empty(n2),
                   np.empty(n2, np.complex128), np.empty(nq), np.empty(nq), np.empty(nq),
-                  np.empty(nq), np.empty(nq), np.zeros(4, np.int64), nh, fac, n_sub)
+                  np.empty(nq), np.empty(nq), np.zeros(4, np.int64), n_sub)
     return cache, wk
 
 
 @njit(cache=True, inline="always")
 def _modes(cache, slot):
     return Modes(cache.lam[slot], cache.V[slot], cache.Vi[slot], cache.SVq[slot],
-                 cache.SVv[slot], cache.cg[slot], cache.gam[slot])
+                 cache.SVv[slot], cache.cg[slot], cache.gam[slot], cache.nh[slot],
+                 cache.nc[slot], cache.wt[slot])
 
 
 @njit(cache=True)
@@ -533,9 +587,8 @@ def _interval(t0, t_end, slot, cache, wk, x, pt, tally):
     tau1 = span if ev_tau < 0 else ev_tau
     if ev_tau >= 0:
         _zeta_at(tau1, md, wk, t0, pt, wk.zeta)
-    if wk.nh < n2:
-        for k in range(wk.nh):
-            wk.zeta[wk.nh + k] = np.conj(wk.zeta[k])
+    for k in range(md.nc):
+        wk.zeta[md.nh + k] = np.conj(wk.zeta[k])
     _advance(tau1, t0, md, wk, x, pt, tally.ecum)
     if ev_tau < 0:
         # no event: continue in the same pattern from t_end

@@ -1,7 +1,10 @@
 """Average-acceleration Newmark (trapezoidal, A-stable, energy conserving for the linear part)
 with an implicit return mapping of the Jenkins elements: a semi-smooth Newton iteration on
 the stick/slip pattern of the new step.  The stiff stuck interface does not limit its step.
-Stick-slip law only; second order (tested against the RK4 reference)."""
+Stick-slip law only; second order (tested against the RK4 reference).
+
+Hot kernels are compiled with :data:`~beamsim.kernels.bundles.LEAF`'s floating-point flags.
+"""
 
 from __future__ import annotations
 

@@ -7,6 +7,8 @@ RK4 substep to ``EVENT_RTOL``) and the step is split at it, so switching times d
 continuously on the state; a return mapping after each step (:func:`common.post_step`)
 settles anything left.  The same step serves the drive and the coupled copies of
 :mod:`beamsim.kernels.copies` (``Coupling``).
+
+Hot kernels are compiled with :data:`~beamsim.kernels.bundles.LEAF`'s floating-point flags.
 """
 
 from __future__ import annotations
