@@ -57,10 +57,9 @@ def test_unpaired_spectrum_keeps_its_order():
 
 
 def test_expo_with_the_interface_dashpot_follows_rk4():
-    """The pipeline's damped model (interface dashpot, conjugate pairs halved) against the RK4
-    reference at two steps: expo's difference to the finer run is at its event-location
-    accuracy (docs/performance.md: 1e-6 of the state), far below RK4's own step error at the
-    coarser step when that is visible."""
+    """The pipeline's damped model (interface dashpot, conjugate pairs evaluated once) against
+    the RK4 reference at a small step: expo's difference stays at the level of its
+    event-location error (docs/performance.md), not at the size of a dropped or doubled mode."""
     base = dict(n_modes=2, mu_s=0.3, mu_k=0.3, f0_rel=2.0, Omega=1.85, interface_damping=0.5,
                 n_transient=2, n_record=4)
     ex = simulate(method="expo", **base)
