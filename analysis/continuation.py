@@ -25,13 +25,13 @@ import pandas as pd
 
 from analysis.pipeline.config import Numerics, as_numerics
 
-__all__ = ["BRANCHES", "continuation_sweeps", "hysteresis"]
+__all__ = ["BRANCHES", "continuation_sweeps", "hysteresis", "state_params"]
 
 #: the two sweep directions, in table order
 BRANCHES = ("up", "down")
 
 
-def _state_params(final_state: np.ndarray, n: int, nq: int) -> dict:
+def state_params(final_state: np.ndarray, n: int, nq: int) -> dict:
     """Initial-state parameters (``q0``, ``v0``, ``z0``, ``mode0``) of a final state, or ``{}``
     (rest) when it is not finite."""
     x = np.asarray(final_state, dtype=float)
@@ -68,7 +68,7 @@ def continuation_sweeps(points: Sequence[dict], numerics: Numerics | dict, *, ax
         batch = []
         for b in BRANCHES:
             k = order[b][step]
-            init = {} if prev[b] is None else _state_params(prev[b], n, nq)
+            init = {} if prev[b] is None else state_params(prev[b], n, nq)
             starts[(b, k)] = "continued" if init else "rest"
             batch.append({"point_id": f"{b}{k:05d}", "params": dict(points[k]) | init})
         for p, rec in zip(batch, simulate_runs(batch, nm, threads)):

@@ -23,11 +23,14 @@ from analysis.pipeline.config import Numerics, as_numerics
 __all__ = ["perturbed_starts", "point_attractors"]
 
 
-def perturbed_starts(params: dict, n: int, *, seed: int = 0, amplitude: float = 1.0) -> list[dict]:
+def perturbed_starts(params: dict, n: int, *, seed: int | Sequence[int] = 0,
+                     amplitude: float = 1.0) -> list[dict]:
     """``n`` seeded initial states of a point: generalised coordinates and velocities drawn
     from a normal distribution of ``amplitude`` times the forced-response scale
     (:func:`analysis.lyapunov.beam.response_scale`; velocities times ``omega``), Jenkins slips
-    zero, every element stuck.  Returns dicts of ``q0``, ``v0`` to merge into the parameters."""
+    zero, every element stuck.  ``seed``: an integer or a sequence of integers (numpy's
+    ``default_rng``; e.g. a config seed and a grid index).  Returns dicts of ``q0``, ``v0`` to
+    merge into the parameters."""
     from analysis.lyapunov.beam import response_scale
     from beamsim.simulate import prepare_point
 

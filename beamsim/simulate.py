@@ -140,7 +140,7 @@ def simulate_batch(points, *, n_transient: int = 50, n_record: int = 50,
                    steps_per_period: int | None = None, step_factor: float = 0.5,
                    method: str = "rk4", dense_per_period: int = 0, dense_full: bool = False,
                    div_limit: float = 1e6, n_threads: int | None = None,
-                   event_checks: int = 4, pattern_cache: int = 128,
+                   event_checks: int = 4, pattern_cache: int = 2048,
                    **common) -> BatchResult:
     """Simulate many parameter points in one compiled, thread-parallel call.
 
@@ -156,7 +156,10 @@ def simulate_batch(points, *, n_transient: int = 50, n_record: int = 50,
     steps_per_period : fixed steps per forcing period; default :func:`period_steps`.
     event_checks : expo: checks per step at least before a crossing is located (Illinois with
         a bisection safeguard).
-    pattern_cache : expo: number of stick patterns whose eigen-decomposition is cached.
+    pattern_cache : expo: number of stick patterns whose eigen-decomposition is cached (capped
+        at about 100 MB per point in flight; the slots are allocated but touched only when used;
+        a smaller cache changes the cost, not the result: a decomposition evicted and recomputed
+        is the same to the bit).
     dense_per_period : if > 0, also store a dense history with this many samples per period.
     div_limit : a point whose max |q| exceeds ``div_limit * q_ref`` (or whose state becomes
         non-finite) is flagged as diverged and stopped; the others are unaffected.  ``q_ref`` is
@@ -218,7 +221,7 @@ def restart_params(result: SimResult) -> dict:
 def simulate(n_transient: int = 50, n_record: int = 50, steps_per_period: int | None = None,
              step_factor: float = 0.5, method: str = "rk4", dense_per_period: int = 0,
              dense_full: bool = False, div_limit: float = 1e6, event_checks: int = 4,
-             pattern_cache: int = 128, **point) -> SimResult:
+             pattern_cache: int = 2048, **point) -> SimResult:
     """Simulate one parameter point (keyword parameters as in :func:`simulate_batch`)."""
     b = simulate_batch([point], n_transient=n_transient, n_record=n_record,
                        steps_per_period=steps_per_period, step_factor=step_factor, method=method,

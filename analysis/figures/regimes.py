@@ -97,9 +97,13 @@ def _title(what: str, grid_name: str, table: pd.DataFrame, axes: list[str], evid
 
 
 def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: int = 130,
-                 evidence: str | None = None) -> None:
+                 evidence: str | None = None, attractors: pd.DataFrame | None = None) -> None:
     """2-D grid: categorical regime map; 1-D grid: bifurcation diagram coloured by regime.
-    ``evidence``: a line on the labels' convergence for the title."""
+    ``evidence``: a line on the labels' convergence (and multistability) for the title.
+    ``attractors``: the multistability table (:func:`analysis.pipeline.cell_attractors.cell_attractors`):
+    on a 2-D map the cells run from other starts are outlined, multistable ones hatched (``//``),
+    those with attractors of two regimes cross-hatched (``xx``); on a 1-D diagram the other
+    attractors' tip samples are drawn as open circles in their own label's colour."""
     axes = list(grid["axes"])
     keys = table.apply(_label_key, axis=1)
     present = [k for k in LABEL_COLOURS if (keys == k).any()]
@@ -115,6 +119,8 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
         cmap = ListedColormap(list(LABEL_COLOURS.values()))
         ax.pcolormesh(_edges(xs, _is_log(grid, xa)), _edges(ys, _is_log(grid, ya)), z, cmap=cmap,
                       vmin=-0.5, vmax=len(LABEL_COLOURS) - 0.5, edgecolors="white", linewidth=0.3)
+        if attractors is not None and not attractors.empty:
+            _hatch_multistable(ax, attractors, xs, ys, xa, ya, grid, handles)
         if "slipped" in table.columns:  # initial-slip boundary: hatch points that never slipped
             for _, row in table[~table["slipped"].astype(bool)].iterrows():
                 ax.plot(row[xa], row[ya], marker="x", ms=3, color="white", mew=0.6)
@@ -131,6 +137,15 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
         for (_, row), key in zip(table.iterrows(), keys):
             w = np.asarray(row["poincare_w_tip"], dtype=float)
             ax.plot(np.full(w.size, row[xa]), w, ".", ms=1.5, color=LABEL_COLOURS[key])
+        if attractors is not None and not attractors.empty:
+            other = attractors[(attractors["attractor"].fillna(0) > 0) & attractors["poincare_w_tip"].notna()]
+            for _, row in other.iterrows():
+                w = np.asarray(row["poincare_w_tip"], dtype=float)
+                colour = LABEL_COLOURS.get(label_key(row["label"], row["period"]), "0.5")
+                ax.plot(np.full(w.size, row[xa]), w, "o", ms=3, mfc="none", mew=0.5, color=colour)
+            if len(other):
+                handles.append(plt.Line2D([], [], marker="o", ls="", mfc="none", color="0.3",
+                                          label="other attractors (other starts)"))
         if _is_log(grid, xa):
             ax.set_xscale("log")
         ax.set_xlabel(_axis_label(xa))
@@ -139,6 +154,33 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
     ax.set_title(_title("Regimes", grid_name, table, axes, evidence), fontsize=9)
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
+
+
+def _hatch_multistable(ax, attractors: pd.DataFrame, xs: np.ndarray, ys: np.ndarray, xa: str, ya: str,
+                       grid: dict, handles: list) -> None:
+    """Outline the cells run from other starts; hatch the multistable ones (module docstring of
+    :func:`plot_regimes`)."""
+    from matplotlib.patches import Rectangle
+
+    from analysis.pipeline.cell_attractors import cell_summary
+
+    xe, ye = _edges(xs, _is_log(grid, xa)), _edges(ys, _is_log(grid, ya))
+    first = attractors.drop_duplicates("point_id").set_index("point_id")
+    counts = {"checked": 0, "//": 0, "xx": 0}
+    for _, cell in cell_summary(attractors).iterrows():
+        i = int(np.searchsorted(xs, first.loc[cell["point_id"], xa]))
+        j = int(np.searchsorted(ys, first.loc[cell["point_id"], ya]))
+        hatch = "xx" if cell["n_regimes"] > 1 else ("//" if cell["multistable"] else None)
+        counts["checked"] += 1
+        if hatch:
+            counts[hatch] += 1
+        ax.add_patch(Rectangle((xe[i], ye[j]), xe[i + 1] - xe[i], ye[j + 1] - ye[j], fill=False,
+                               edgecolor="black", linewidth=0.8, hatch=hatch))
+    handles.append(Patch(fill=False, edgecolor="black", label=f"run from other starts ({counts['checked']})"))
+    handles.append(Patch(fill=False, edgecolor="black", hatch="//",
+                         label=f"several attractors, one regime ({counts['//']})"))
+    handles.append(Patch(fill=False, edgecolor="black", hatch="xx",
+                         label=f"attractors of two regimes ({counts['xx']})"))
 
 
 #: the lambda_1 maps' colour range covers this quantile of |lambda_1 T|; larger values are

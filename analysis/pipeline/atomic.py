@@ -11,9 +11,10 @@ until the new file is complete.
 from __future__ import annotations
 
 import os
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
@@ -34,7 +35,20 @@ def atomic_output(path: str | Path) -> Iterator[Path]:
         raise
 
 
-def write_parquet(table: pd.DataFrame, path: str | Path) -> None:
-    """``table.to_parquet(path, index=False)``, atomically."""
+def write_parquet(table: pd.DataFrame, path: str | Path, metadata: Mapping[str, Any] | None = None) -> None:
+    """``table.to_parquet(path, index=False)``, atomically; ``metadata``: extra schema metadata,
+    key -> a JSON-serialisable value (stored as sorted-key JSON)."""
+    if not metadata:
+        with atomic_output(path) as tmp:
+            table.to_parquet(tmp, index=False)
+        return
+    import json
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    tab = pa.Table.from_pandas(table, preserve_index=False)
+    extra = {k.encode(): json.dumps(v, sort_keys=True).encode() for k, v in metadata.items()}
+    tab = tab.replace_schema_metadata({**(tab.schema.metadata or {}), **extra})
     with atomic_output(path) as tmp:
-        table.to_parquet(tmp, index=False)
+        pq.write_table(tab, tmp)

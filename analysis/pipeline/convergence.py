@@ -39,7 +39,7 @@ from analysis.pipeline.config import Numerics, as_numerics
 from analysis.pipeline.grid import canonical_json, point_id
 
 __all__ = ["ConvergenceSettings", "REFINEMENTS", "convergence_runs", "convergence_summary",
-           "label_text", "refine", "same_label", "sample_points", "summary_line",
+           "label_text", "refine", "run_metadata", "same_label", "sample_points", "summary_line",
            "write_convergence_table"]
 
 #: refinement name -> what it changes (the figure's and the docs' wording)
@@ -290,21 +290,21 @@ def summary_line(summary: pd.DataFrame) -> str:
     return "labels hold (sampled points): " + ", ".join(parts)
 
 
-def write_convergence_table(runs: pd.DataFrame, path: str, *, grid_name: str, settings: dict,
-                            config_hash: str) -> None:
-    """Write the runs of every refinement to Parquet (atomically) with ``beamsim.convergence``
-    metadata: grid name, settings, config hash, results and classifier versions."""
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
-    from analysis.pipeline.atomic import atomic_output
+def run_metadata(grid_name: str, settings: dict, config_hash: str) -> dict:
+    """The metadata of a table derived from a map (convergence, multistability): grid name,
+    settings, the map's config hash, results and classifier versions."""
     from analysis.pipeline.grid import RESULTS_VERSION
     from analysis.regimes import CLASSIFIER_VERSION
 
-    tab = pa.Table.from_pandas(runs, preserve_index=False)
-    meta = {"grid_name": grid_name, "settings": settings, "config_hash": config_hash,
+    return {"grid_name": grid_name, "settings": settings, "config_hash": config_hash,
             "results_version": RESULTS_VERSION, "classifier_version": CLASSIFIER_VERSION}
-    tab = tab.replace_schema_metadata({**(tab.schema.metadata or {}),
-                                       b"beamsim.convergence": json.dumps(meta, sort_keys=True).encode()})
-    with atomic_output(path) as tmp:
-        pq.write_table(tab, tmp)
+
+
+def write_convergence_table(runs: pd.DataFrame, path: str, *, grid_name: str, settings: dict,
+                            config_hash: str) -> None:
+    """Write the runs of every refinement to Parquet (atomically) with ``beamsim.convergence``
+    metadata (:func:`run_metadata`)."""
+    from analysis.pipeline.atomic import write_parquet
+
+    meta = run_metadata(grid_name, settings, config_hash)
+    write_parquet(runs, path, metadata={"beamsim.convergence": meta})

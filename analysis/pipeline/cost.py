@@ -17,7 +17,11 @@ The estimate is a cost model, ``seconds = c * periods / Omega``, per stage and p
   not known before; the store is not consulted).  The cost model does not see ``k_t``: the
   stiffer interface's shorter RK4 step in the Lyapunov runs is not in the estimate;
 * the continuation lines (:mod:`analysis.continuation`): both stages for every point of a
-  pending line, twice (up- and down-sweep).
+  pending line, twice (up- and down-sweep);
+* the multistability runs (:mod:`analysis.pipeline.cell_attractors`;
+  :func:`multistability_seconds`): per grid, the cells run from other starts times the starts
+  per cell times the mean simulate estimate of the grid's points, plus the Lyapunov stage for the
+  expected share :data:`NEW_ATTRACTOR_SHARE` of the starts that end on an attractor of their own.
 
 The two shares are measured on the default grid (docs/pipeline.md: 26 % of the points ran a
 long record, 29 % were continued, 3.5 % twice); other grids differ.
@@ -42,7 +46,7 @@ from analysis.pipeline.stages import integrator
 from analysis.pipeline.store import PointStore
 
 __all__ = ["COST_MODEL_FILE", "Estimate", "LONG_RUN_SECONDS", "convergence_seconds", "estimate_run",
-           "load_cost_model"]
+           "load_cost_model", "multistability_seconds"]
 
 COST_MODEL_FILE = Path(__file__).with_name("cost_model.yaml")
 #: a run estimated longer than this on the current cores needs ``--config allow_long=True``
@@ -51,6 +55,9 @@ LONG_RUN_SECONDS = 3600
 LONG_RECORD_SHARE = 1.0 / 3.0
 #: expected share of points the adaptive transient continues (default grid: 0.29)
 EXTENDED_SHARE = 0.3
+#: expected share of a cell's extra starts that reach an attractor of their own (each then
+#: needs a Lyapunov run; default grid: 100 of 192, docs/pipeline.md)
+NEW_ATTRACTOR_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -62,7 +69,8 @@ class Estimate:
     cpu_seconds : estimated single-thread time of the new work [s], the convergence runs'
         included.
     disk_bytes : estimated size of the new store records [bytes].
-    convergence_runs : point runs of the convergence step and the continuation lines still to do.
+    convergence_runs : point runs of the convergence step, the continuation lines and the
+        multistability runs still to do.
     """
 
     points: int
@@ -80,7 +88,7 @@ class Estimate:
     def summary(self, cores: int) -> str:
         """One line: points, new points per stage, estimated time on ``cores`` cores."""
         n = self.convergence_runs
-        conv = f", {n} convergence / continuation run{'s' if n != 1 else ''}" if n else ""
+        conv = f", {n} convergence / continuation / multistability run{'s' if n != 1 else ''}" if n else ""
         return (f"{self.points} points; to compute: {self.new_simulate} simulate, "
                 f"{self.new_lyapunov} lyapunov{conv}; estimated {_duration(self.wall_seconds(cores))} "
                 f"on {cores} core{'s' if cores != 1 else ''}")
@@ -154,15 +162,32 @@ def convergence_seconds(points: Sequence, numerics: Numerics, refinements: Itera
     return seconds, runs
 
 
+def multistability_seconds(points: Sequence, numerics: Numerics, n_cells: int, starts_per_cell: int,
+                           model: Mapping | None = None) -> tuple[float, int]:
+    """Estimated single-thread seconds and the number of point runs of one grid's multistability
+    runs: ``n_cells * starts_per_cell`` simulate runs at the mean estimate of the grid's points,
+    plus Lyapunov runs for :data:`NEW_ATTRACTOR_SHARE` of them."""
+    model = load_cost_model() if model is None else model
+    runs = int(n_cells) * int(starts_per_cell)
+    if not runs or not points:
+        return 0.0, 0
+    sim = sum(point_seconds(p.params, numerics, model, ("simulate",)) for p in points) / len(points)
+    lyap = sum(point_seconds(p.params, numerics, model, ("lyapunov",)) for p in points) / len(points)
+    return runs * (sim + NEW_ATTRACTOR_SHARE * lyap), runs
+
+
 def estimate_run(points: Iterable, numerics: Numerics, store_root: str | Path,
                  model: Mapping | None = None,
                  convergence: Iterable[tuple[Sequence, Iterable[str], int]] = (),
-                 lines: Iterable[Sequence] = ()) -> Estimate:
+                 lines: Iterable[Sequence] = (),
+                 multistability: Iterable[tuple[Sequence, int, int]] = ()) -> Estimate:
     """Estimate of the work for ``points`` (objects with ``point_id`` and ``params``; the same
     point in two grids counts once) given what ``store_root`` already holds, plus the
     convergence runs still to do: ``(grid's points, pending refinements, sample)`` per grid
     (:func:`convergence_seconds`), plus the pending continuation ``lines`` (each a sequence of
-    points, run up and down; they count as convergence-like re-runs)."""
+    points, run up and down; they count as convergence-like re-runs), plus the pending
+    multistability runs: ``(grid's points, cells, starts per cell)`` per grid
+    (:func:`multistability_seconds`; counted with the convergence-like re-runs)."""
     model = load_cost_model() if model is None else model
     stores = {s: PointStore(store_root, s) for s in ("simulate", "lyapunov")}
     unique = {p.point_id: p.params for p in points}
@@ -183,4 +208,8 @@ def estimate_run(points: Iterable, numerics: Numerics, store_root: str | Path,
         for p in line:
             seconds += 2 * point_seconds(p.params, numerics, model, ("simulate", "lyapunov"))
             conv_runs += 2
+    for grid_points, n_cells, starts in multistability:
+        s, r = multistability_seconds(grid_points, numerics, n_cells, starts, model)
+        seconds += s
+        conv_runs += r
     return Estimate(len(unique), new["simulate"], new["lyapunov"], seconds, disk, conv_runs)

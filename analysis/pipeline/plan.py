@@ -17,6 +17,7 @@ from pathlib import Path
 import yaml
 from snakemake.exceptions import WorkflowError
 
+from analysis.pipeline.cell_attractors import MultistabilitySettings
 from analysis.pipeline.config import Numerics
 from analysis.pipeline.convergence import ConvergenceSettings, refine
 from analysis.pipeline.grid import GridPoint, canonical_json, chunk_points, expand_grid
@@ -46,6 +47,7 @@ class Plan:
     points : grid name -> its points in axis order; chunks : grid name -> its chunks.
     simulation_methods : integrators of the reference runs.
     convergence : the convergence runs' settings (sample size, seed, refinements).
+    multistability : the settings of the runs of a map's cells from other starts.
     lines : grid name -> line name -> the line's points in axis order (continuation sweeps).
     """
 
@@ -58,6 +60,7 @@ class Plan:
     chunks: dict[str, list[list[GridPoint]]]
     simulation_methods: list[str]
     convergence: ConvergenceSettings
+    multistability: MultistabilitySettings
     lines: dict[str, dict[str, list[GridPoint]]]
 
 
@@ -99,6 +102,7 @@ def build_plan(config: dict, schemas: Path) -> Plan:
     methods = sorted({integrator(numerics.method, p.params) for pts in points.values() for p in pts})
     try:
         convergence = ConvergenceSettings.from_dict(config.get("convergence"))
+        multistability = MultistabilitySettings.from_dict(config.get("multistability"))
         for pts in points.values():  # every refinement applies to every point (modes + 1 <= max)
             for ref in convergence.active:
                 for p in pts:
@@ -106,7 +110,7 @@ def build_plan(config: dict, schemas: Path) -> Plan:
     except ValueError as exc:
         raise WorkflowError(f"invalid config: {exc}") from None
     return Plan(grids, numerics, result_numerics, table_config, config_hash, points, chunks,
-                methods, convergence, lines)
+                methods, convergence, multistability, lines)
 
 
 def _expand_lines(grids: dict, model: dict, result_numerics: dict, model_schema: dict,

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from analysis.continuation import _state_params, continuation_sweeps, hysteresis
+from analysis.continuation import continuation_sweeps, hysteresis, state_params
 from analysis.pipeline.config import Numerics
 from analysis.pipeline.stages import simulate_runs
 
@@ -47,14 +47,14 @@ def test_a_continued_point_starts_from_its_neighbours_end_state():
     from beamsim.simulate import prepare_point
 
     md = prepare_point(**pts[0]).model
-    init = _state_params(first["final_state"], md.n, md.n_quad)
+    init = state_params(first["final_state"], md.n, md.n_quad)
     assert set(init) == {"q0", "v0", "z0", "mode0"}
     by_hand = simulate_runs([{"point_id": "b", "params": pts[1] | init}], nm, 1)[0]
     rest = simulate_runs([{"point_id": "c", "params": pts[1]}], nm, 1)[0]
     got = np.asarray(t[(t["branch"] == "up") & (t["k"] == 1)].iloc[0]["poincare_w_tip"])
     np.testing.assert_array_equal(got, by_hand["poincare_tip"][:, 0])
     assert np.max(np.abs(got - rest["poincare_tip"][:, 0])) > 1e-3 * np.max(np.abs(got))
-    assert _state_params(np.full(first["final_state"].size, np.nan), md.n, md.n_quad) == {}
+    assert state_params(np.full(first["final_state"].size, np.nan), md.n, md.n_quad) == {}
 
 
 def test_a_linear_damped_line_has_no_hysteresis(linear_line):

@@ -44,3 +44,46 @@ def test_regime_and_lle_figures_are_drawn(tmp_path, axes) -> None:
     for plot, name in ((plot_regimes, "regimes.png"), (plot_lle, "lle.png")):
         plot(table, "g", grid, str(tmp_path / name), dpi=40)
         assert (tmp_path / name).stat().st_size > 1000
+
+
+@pytest.mark.parametrize("axes", [{"Omega": [1.0, 2.0, 4.0], "f0_rel": [1.0, 1.5, 2.0, 3.0]},
+                                  {"f0_rel": [1.0, 1.5, 2.0, 3.0, 4.0]}])
+def test_multistable_cells_are_marked(tmp_path, axes) -> None:
+    """With a multistability table the map outlines the checked cells and hatches the
+    multistable ones (its legend counts them); the 1-D diagram adds the other attractors."""
+    import matplotlib.pyplot as plt
+
+    table = _table(axes)
+    table["point_id"] = [f"p{i}" for i in range(len(table))]
+    grid = {"axes": {k: v for k, v in axes.items()}}
+    rows = []
+    for i in (0, 3):  # cell 0: one attractor; cell 3: two of two regimes
+        r = table.iloc[i]
+        n = 1 if i == 0 else 2
+        for a in range(n):
+            rows.append({"point_id": r["point_id"], **{k: r[k] for k in axes}, "weight": 1.0, "attractor": a,
+                         "starts": ["rest"], "label": ["periodic", "chaotic"][a], "period": [1, None][a],
+                         "label_text": ["periodic-1", "chaotic"][a], "poincare_w_tip": [0.1, 0.2],
+                         "n_starts": 3, "n_attractors": n, "n_regimes": n, "multistable": n > 1})
+    att = pd.DataFrame(rows)
+    att["attractor"] = att["attractor"].astype("Int64")
+    saved = {}
+    real_savefig = plt.Figure.savefig
+
+    def keep(fig, path, **kw):
+        saved["legend"] = [t.get_text() for ax in fig.axes for t in (ax.get_legend().get_texts()
+                                                                      if ax.get_legend() else [])]
+        return real_savefig(fig, path, **kw)
+
+    plt.Figure.savefig = keep
+    try:
+        plot_regimes(table, "g", grid, str(tmp_path / "r.png"), dpi=40, attractors=att)
+    finally:
+        plt.Figure.savefig = real_savefig
+    assert (tmp_path / "r.png").stat().st_size > 1000
+    if len(axes) == 2:
+        assert "run from other starts (2)" in saved["legend"]
+        assert "attractors of two regimes (1)" in saved["legend"]
+        assert "several attractors, one regime (0)" in saved["legend"]
+    else:
+        assert "other attractors (other starts)" in saved["legend"]

@@ -72,8 +72,14 @@ def test_the_convergence_runs_are_in_the_estimate(tmp_path):
     assert line.convergence_runs == 4
     assert line.cpu_seconds - base.cpu_seconds == pytest.approx(
         2 * estimate_run(pts[:2], Numerics(), tmp_path).cpu_seconds)
-    assert "3 convergence / continuation runs" in many.summary(2)
-    assert "1 convergence / continuation run;" in estimate_run(pts, Numerics(), tmp_path,
+    multi = estimate_run(pts, Numerics(), tmp_path, multistability=[(pts, 2, 5)])  # 2 cells, 5 starts
+    assert multi.convergence_runs == 10
+    sim = estimate_run(pts, Numerics(), tmp_path, model=None).cpu_seconds  # both stages, per point
+    assert base.cpu_seconds < multi.cpu_seconds < base.cpu_seconds + 10 * sim / len(pts)
+    off = estimate_run(pts, Numerics(), tmp_path, multistability=[(pts, 0, 5)])
+    assert off.cpu_seconds == base.cpu_seconds and off.convergence_runs == 0
+    assert "3 convergence / continuation / multistability runs" in many.summary(2)
+    assert "1 convergence / continuation / multistability run;" in estimate_run(pts, Numerics(), tmp_path,
                                                    convergence=[(pts, ["k_t"], 1)]).summary(2)
 
 
@@ -101,7 +107,7 @@ def test_a_ten_thousand_point_grid_is_planned_by_a_dry_run_and_refused_without_o
     assert dry.returncode == 0, dry.stderr[-2000:]
     # the test workflows' convergence step: one sampled point, one refinement
     words = ("regimes: 10000 points; to compute: 10000 simulate, 10000 lyapunov, "
-             "1 convergence / continuation run; estimated")
+             "1 convergence / continuation / multistability run; estimated")
     assert words in dry.stdout + dry.stderr
     res = snakemake(work, "regimes")
     lines = [ln for ln in (res.stdout + res.stderr).splitlines() if ln.startswith("long run:")]

@@ -23,6 +23,10 @@ SHORT_LYAPUNOV = {"block_periods": 5, "burn_in": 5, "min_blocks": 2, "max_blocks
 #: the convergence step of the test workflows: one sampled point, one refinement
 SHORT_CONVERGENCE = {"sample": 1, "seed": 0, "refinements": ["k_t"]}
 
+#: the multistability step of the test workflows: off (tests/workflow/test_workflow_regimes.py
+#: turns it on)
+NO_MULTISTABILITY = {"sample": 0}
+
 
 def snakemake_command(workdir: Path, *args: str, cores: int = 2) -> list[str]:
     return [sys.executable, "-m", "snakemake", "-s", str(ROOT / "Snakefile"), "-d", str(workdir),
@@ -39,13 +43,15 @@ def snakemake(workdir: Path, *args: str, cores: int = 2) -> subprocess.Completed
 
 
 def setup_workdir(path: Path, grid: dict = GRID, convergence: dict = SHORT_CONVERGENCE,
-                  **numerics) -> Path:
+                  multistability: dict = NO_MULTISTABILITY, **numerics) -> Path:
     """``path`` with ``config.yaml`` (the shipped config, short runs -- a fixed transient, a
     long Benettin record no longer than the Stefanski window, ``convergence`` for the
-    convergence step --, one point per chunk, and ``numerics`` overrides) and ``grid.yaml``."""
+    convergence step, ``multistability`` for the runs from other starts --, one point per
+    chunk, and ``numerics`` overrides) and ``grid.yaml``."""
     cfg = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
     cfg["numerics"]["lyapunov"].update(SHORT_LYAPUNOV)
     cfg["convergence"] = dict(convergence)
+    cfg["multistability"] = dict(multistability)
     cfg["numerics"].update({"n_transient": 4, "n_record": 128, "chunk_size": 1} | numerics)
     cfg["numerics"].setdefault("n_transient_max", cfg["numerics"]["n_transient"])
     if "n_transient_max" not in numerics:

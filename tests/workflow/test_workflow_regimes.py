@@ -22,6 +22,8 @@ from analysis.regimes import CLASSIFIER_VERSION
 
 #: the convergence step with every refinement, on one sampled point
 CONVERGENCE = {"sample": 1, "seed": 0, "refinements": ["step", "windows", "k_t", "modes"]}
+#: every cell run again from its neighbour's end state and one seeded random state
+MULTISTABILITY = {"sample": "all", "perturbations": 1}
 #: the tiny grid with a two-point continuation line
 GRID_L = yaml.safe_load(yaml.safe_dump(GRID))
 GRID_L["grids"]["tiny"]["lines"] = {"sweep": {"axes": {"f0_rel": [2.0, 3.0]}, "fixed": {"mu_s": 0.5}}}
@@ -29,7 +31,8 @@ GRID_L["grids"]["tiny"]["lines"] = {"sweep": {"axes": {"f0_rel": [2.0, 3.0]}, "f
 
 @pytest.fixture(scope="module")
 def first_run(tmp_path_factory):
-    work = setup_workdir(tmp_path_factory.mktemp("regimes"), grid=GRID_L, convergence=CONVERGENCE)
+    work = setup_workdir(tmp_path_factory.mktemp("regimes"), grid=GRID_L, convergence=CONVERGENCE,
+                         multistability=MULTISTABILITY)
     res = snakemake(work, "regimes")
     assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
     return work
@@ -89,6 +92,31 @@ def test_convergence_step_ships_with_the_map(first_run):
     assert json.loads(meta)["config_hash"] == read_regime_metadata(out / "tiny.parquet")["config_hash"]
 
 
+def test_multistability_step_ships_with_the_map(first_run):
+    """Every cell of the map run from the other starts: rows per cell (its attractors, then the
+    starts that reached none), in the map's order; the row holding the start from rest has the
+    map's label (an attractor, or the map's `unsettled` with the short test numerics); every
+    start named once; the config hash of the map."""
+    out = first_run / "results" / "regimes"
+    att = pd.read_parquet(out / "tiny" / "attractors.parquet")
+    table = pd.read_parquet(out / "tiny.parquet")
+    assert list(att["point_id"].drop_duplicates()) == list(table["point_id"])
+    for _, row in table.iterrows():
+        cell = att[att["point_id"] == row["point_id"]]
+        rest = cell[cell["starts"].map(lambda s: "rest" in list(s))]
+        assert len(rest) == 1 and rest["label"].iloc[0] == row["label"]
+        a = rest["attractor"].iloc[0]
+        assert (pd.notna(a) and a == 0) == (row["label"] not in ("unsettled", "diverged"))
+        assert (cell["n_starts"] == 3).all()  # rest, the one neighbour, one perturbation
+        assert (cell["n_attractors"] == cell["attractor"].notna().sum()).all()
+    starts = [s for ss in att["starts"] for s in ss]
+    assert sorted(starts) == sorted(["rest", "f0_rel+", "perturbed0", "rest", "f0_rel-", "perturbed0"])
+    assert att["weight"].eq(1.0).all()
+    meta = json.loads(pq.read_schema(out / "tiny" / "attractors.parquet").metadata[b"beamsim.attractors"])
+    assert meta["config_hash"] == read_regime_metadata(out / "tiny.parquet")["config_hash"]
+    assert meta["settings"]["perturbations"] == 1
+
+
 def test_continuation_line_ships_with_the_map(first_run):
     """A grid's line is swept up and down (each point from its neighbour's end state), with the
     line's own fixed values on top of the grid's, and drawn."""
@@ -131,8 +159,10 @@ def test_adding_a_point_computes_only_the_new_one(first_run, tmp_path):
 
 
 def test_same_config_same_table_whatever_the_core_count(first_run, tmp_path):
-    other = setup_workdir(tmp_path / "again", grid=GRID_L, convergence=CONVERGENCE)
-    targets = ("results/regimes/tiny.parquet", "results/regimes/tiny/convergence.parquet")
+    other = setup_workdir(tmp_path / "again", grid=GRID_L, convergence=CONVERGENCE,
+                          multistability=MULTISTABILITY)
+    targets = ("results/regimes/tiny.parquet", "results/regimes/tiny/convergence.parquet",
+               "results/regimes/tiny/attractors.parquet")
     res = snakemake(other, *targets, cores=1)
     assert res.returncode == 0, res.stderr[-3000:]
     res = snakemake(first_run, *targets)  # first_run's grid restored above

@@ -32,6 +32,9 @@ SIMULATION_METHODS = PLAN.simulation_methods
 CONVERGENCE = PLAN.convergence
 CONVERGENCE_SETTINGS = {"sample": CONVERGENCE.sample, "seed": CONVERGENCE.seed,
                         "refinements": list(CONVERGENCE.refinements)}
+#: the runs of a map's cells from other starts (analysis.pipeline.cell_attractors)
+MULTISTABILITY = PLAN.multistability
+MULTISTABILITY_SETTINGS = MULTISTABILITY.as_dict()
 #: the content-addressed per-point store (analysis.pipeline.store)
 STORE_ROOT = "results/store"
 #: the paper target (--config paper_file=..., else config/paper.yaml of the working directory,
@@ -53,8 +56,14 @@ if workflow.is_main_process:  # not in the per-job processes of a cluster execut
     ]
     PENDING_LINES = [pts for g, lines in PLAN.lines.items() for line, pts in lines.items()
                      if not Path(f"results/regimes/{g}/lines/{line}.parquet").exists()]
+    PENDING_MULTISTABILITY = [
+        (POINTS[g], MULTISTABILITY.n_cells(len(POINTS[g])),
+         MULTISTABILITY.starts_per_cell(len(GRIDS["grids"][g]["axes"])))
+        for g in GRIDS["grids"] if not Path(f"results/regimes/{g}/attractors.parquet").exists()
+    ]
     ESTIMATE = estimate_run([p for pts in POINTS.values() for p in pts], PLAN.numerics, STORE_ROOT,
-                            convergence=PENDING_CONVERGENCE, lines=PENDING_LINES)
+                            convergence=PENDING_CONVERGENCE, lines=PENDING_LINES,
+                            multistability=PENDING_MULTISTABILITY)
     logger.info(f"regimes: {ESTIMATE.summary(workflow.global_resources.get('_cores') or 1)}")
 
 
@@ -114,6 +123,11 @@ def convergence_files(wildcards) -> list[str]:
 def convergence_table(wildcards) -> list[str]:
     """The convergence table a grid's map figure reports (none when ``convergence.sample`` is 0)."""
     return [f"results/regimes/{wildcards.grid}/convergence.parquet"] if CONVERGENCE.active else []
+
+
+def attractor_table(wildcards) -> list[str]:
+    """The multistability table a grid's map figure draws (none when multistability is off)."""
+    return [f"results/regimes/{wildcards.grid}/attractors.parquet"] if MULTISTABILITY.active else []
 
 
 def mode_key() -> str:

@@ -112,6 +112,29 @@ rule convergence_runs:
         "../scripts/convergence_runs.py"
 
 
+rule cell_attractors:
+    input:
+        table="results/regimes/{grid}.parquet",
+        simulate=lambda wc: chunk_files(wc.grid, "simulate"),
+        modes=grid_mode_files,
+        kernels=ancient(["results/kernels/simulate.done", "results/kernels/lyapunov.done"]),
+    output:
+        table="results/regimes/{grid}/attractors.parquet",
+    params:
+        numerics=RESULT_NUMERICS,
+        settings=MULTISTABILITY_SETTINGS,
+        axes=lambda wc: list(GRIDS["grids"][wc.grid]["axes"]),
+        store=STORE_ROOT,
+        config_hash=CONFIG_HASH,
+    threads: 2
+    log:
+        "logs/regimes/{grid}/cell_attractors.log",
+    conda:
+        "../envs/beamsim.yaml"
+    script:
+        "../scripts/cell_attractors.py"
+
+
 rule convergence_table:
     input:
         runs=convergence_files,
@@ -197,6 +220,7 @@ rule regime_figures:
     input:
         table="results/regimes/{grid}.parquet",
         convergence=convergence_table,
+        attractors=attractor_table,
     output:
         regimes=report(
             "results/regimes/{grid}/regimes.png",
@@ -253,5 +277,7 @@ rule regimes:
         expand("results/regimes/{grid}/portraits.png", grid=list(GRIDS["grids"])),
         expand("results/regimes/{grid}/convergence.png",
                grid=list(GRIDS["grids"]) if CONVERGENCE.active else []),
+        expand("results/regimes/{grid}/attractors.parquet",
+               grid=list(GRIDS["grids"]) if MULTISTABILITY.active else []),
         line_files(".parquet"),
         line_files(".png"),

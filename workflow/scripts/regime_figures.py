@@ -7,6 +7,7 @@ sys.stderr = open(snakemake.log[0], "w")
 import pandas as pd
 
 from analysis.figures.regimes import plot_lle, plot_regimes
+from analysis.pipeline import cell_attractors
 from analysis.pipeline.convergence import convergence_summary, summary_line
 from analysis.pipeline.stages import lle_resolution
 
@@ -14,6 +15,9 @@ table = pd.read_parquet(snakemake.input.table)
 grid, name, dpi = snakemake.params.grid, snakemake.wildcards.grid, snakemake.params.dpi
 runs = [pd.read_parquet(f) for f in snakemake.input.convergence]
 evidence = summary_line(convergence_summary(runs[0]) if runs else None)
-plot_regimes(table, name, grid, snakemake.output.regimes, dpi=dpi, evidence=evidence)
+attractors = pd.read_parquet(snakemake.input.attractors[0]) if snakemake.input.attractors else None
+multistability = cell_attractors.summary_line(cell_attractors.cell_summary(attractors))
+plot_regimes(table, name, grid, snakemake.output.regimes, dpi=dpi, evidence=evidence + "; " + multistability,
+             attractors=attractors)
 plot_lle(table, name, grid, snakemake.output.lle, dpi=dpi,
          resolution=lle_resolution(snakemake.params.numerics), evidence=evidence)
