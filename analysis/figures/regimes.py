@@ -102,8 +102,9 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
     ``evidence``: a line on the labels' convergence (and multistability) for the title.
     ``attractors``: the multistability table (:func:`analysis.pipeline.cell_attractors.cell_attractors`):
     on a 2-D map the cells run from other starts are outlined, multistable ones hatched (``//``),
-    those with attractors of two regimes cross-hatched (``xx``); on a 1-D diagram the other
-    attractors' tip samples are drawn as open circles in their own label's colour."""
+    those with attractors of two regimes (two different verdicts) cross-hatched (``xx``); on a
+    1-D diagram the tip samples of the attractors the start from rest did not reach are drawn
+    as open circles in their own label's colour."""
     axes = list(grid["axes"])
     keys = table.apply(_label_key, axis=1)
     present = [k for k in LABEL_COLOURS if (keys == k).any()]
@@ -138,7 +139,8 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
             w = np.asarray(row["poincare_w_tip"], dtype=float)
             ax.plot(np.full(w.size, row[xa]), w, ".", ms=1.5, color=LABEL_COLOURS[key])
         if attractors is not None and not attractors.empty:
-            other = attractors[(attractors["attractor"].fillna(0) > 0) & attractors["poincare_w_tip"].notna()]
+            mine = attractors["starts"].map(lambda s: "rest" in list(s))  # the map's own run
+            other = attractors[attractors["attractor"].notna() & ~mine & attractors["poincare_w_tip"].notna()]
             for _, row in other.iterrows():
                 w = np.asarray(row["poincare_w_tip"], dtype=float)
                 colour = LABEL_COLOURS.get(label_key(row["label"], row["period"]), "0.5")
@@ -178,7 +180,7 @@ def _hatch_multistable(ax, attractors: pd.DataFrame, xs: np.ndarray, ys: np.ndar
                                edgecolor="black", linewidth=0.8, hatch=hatch))
     handles.append(Patch(fill=False, edgecolor="black", label=f"run from other starts ({counts['checked']})"))
     handles.append(Patch(fill=False, edgecolor="black", hatch="//",
-                         label=f"several attractors, one regime ({counts['//']})"))
+                         label=f"several attractors, regimes not shown to differ ({counts['//']})"))
     handles.append(Patch(fill=False, edgecolor="black", hatch="xx",
                          label=f"attractors of two regimes ({counts['xx']})"))
 

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -174,28 +174,18 @@ def cell_attractors(table: pd.DataFrame, simulated: pd.DataFrame, numerics: Nume
 
     table : the map's regime table; simulated : its simulate-stage records (``point_id``,
         ``poincare_state``, ``final_state``, ``diverged``).
-    Returns one row per cell and attractor, cells in the table's order, with ``weight`` (the
-    cell's stratum weight in the sample, 1 with ``sample: all``), attractors in order of
-    first appearance (the map's own first): ``point_id``, the ``axes`` values, ``attractor``
+    Returns one row per cell and attractor, cells in the table's order, attractors in order of
+    first appearance (attractor 0 is the map's own unless the map's run is ``diverged`` or
+    ``unsettled``), then a row per verdict for the starts that reached no attractor; with
+    ``weight`` (the cell's stratum weight in the sample, 1 with ``sample: all``), ``point_id``,
+    the ``axes`` values, ``attractor``
     (0, 1, ...; missing for the row collecting starts that ``diverged`` or stayed ``unsettled``),
     ``starts`` (names, :func:`cell_starts`), ``label``, ``period``, ``label_text``, ``lle_T``,
     ``lle_lo_T``, ``lle_hi_T`` (per forcing period), ``reason``, ``run_id`` (the representative
     run's id in the store), ``poincare_w_tip`` (its tip's radial displacement at ``t = kT``),
     ``n_starts``, ``n_attractors``, ``n_regimes`` (distinct verdicts among the attractors:
     periodic-m, quasi-periodic, chaotic; ``undetermined`` is no verdict) and ``multistable``."""
-    import json
-
-    from analysis.attractors import group_records
-    from analysis.pipeline.convergence import label_text, sample_points
-    from analysis.pipeline.grid import point_id
-    from analysis.pipeline.stages import (
-        classify_points,
-        lle_resolution,
-        lyapunov_points,
-        poincare_array,
-        simulate_points,
-    )
-    from analysis.regimes import DIVERGED, UNSETTLED, transient_reason
+    from analysis.pipeline.convergence import sample_points
 
     nm = as_numerics(numerics)
     if not settings.active:
@@ -206,9 +196,39 @@ def cell_attractors(table: pd.DataFrame, simulated: pd.DataFrame, numerics: Nume
         cells = sample_points(table, int(settings.sample), settings.seed)
     sim_rest = simulated.set_index("point_id")
     finals = {pid: sim_rest.loc[pid, "final_state"] for pid in table["point_id"] if pid in sim_rest.index}
-    starts = cell_starts(table, finals, settings, axes, cells)
+    runs, sim = _run_starts(cells, cell_starts(table, finals, settings, axes, cells), nm, store_root, threads)
+    grouped = [_group_cell(row, runs[row["point_id"]], sim_rest, sim) for _, row in cells.iterrows()]
+    labels = _label_new_attractors(grouped, sim, nm, store_root, threads)
+    res = pd.DataFrame([r for cell in grouped for r in _cell_rows(cell, labels, axes)])
+    res["attractor"] = res["attractor"].astype("Int64")
+    res["period"] = res["period"].astype("Int64")
+    return res
 
-    # every start of every cell through the simulate stage, in one pass (cached per run id)
+
+class _Cell(NamedTuple):
+    """One cell's runs: the map's row, start names, run ids, parameters and simulate records
+    (the start from rest first), each run's status (``None``: on an attractor, else
+    ``diverged`` / ``unsettled``) and the groups of settled runs (indices into the lists)."""
+
+    row: pd.Series
+    names: list[str]
+    ids: list[str]
+    params: list[dict]
+    recs: list[pd.Series]
+    status: list[str | None]
+    groups: list[list[int]]
+
+
+def _run_starts(cells: pd.DataFrame, starts: Mapping[str, list[tuple[str, dict]]], nm: Numerics,
+                store_root: str, threads: int) -> tuple[dict, pd.DataFrame | None]:
+    """Every start of every cell through the simulate stage in one pass (the store caches each
+    run under an id that contains its initial state).  Returns point id -> ``[(name, run id,
+    parameters), ...]`` and the simulate records indexed by run id."""
+    import json
+
+    from analysis.pipeline.grid import point_id
+    from analysis.pipeline.stages import simulate_points
+
     runs: dict[str, list[tuple[str, str, dict]]] = {}
     pts = []
     for _, row in cells.iterrows():
@@ -220,79 +240,95 @@ def cell_attractors(table: pd.DataFrame, simulated: pd.DataFrame, numerics: Nume
             runs[row["point_id"]].append((name, rid, p))
             pts.append({"point_id": rid, "params": p})
     sim = simulate_points(pts, nm, store_root, threads).set_index("point_id") if pts else None
+    return runs, sim
 
-    def settled(rec: pd.Series) -> str | None:
-        """None for a record on an attractor, else the label saying why not."""
-        x = poincare_array(rec["poincare_state"])
-        if rec["diverged"] or not np.all(np.isfinite(x)):
-            return DIVERGED
-        return UNSETTLED if transient_reason(x) is not None else None
 
-    # group each cell's settled records; new groups get a representative to label
-    grouped = []
+def _status(rec: pd.Series) -> str | None:
+    """``None`` for a record on an attractor, else the label saying why not."""
+    from analysis.pipeline.stages import poincare_array
+    from analysis.regimes import DIVERGED, UNSETTLED, transient_reason
+
+    x = poincare_array(rec["poincare_state"])
+    if rec["diverged"] or not np.all(np.isfinite(x)):
+        return DIVERGED
+    return UNSETTLED if transient_reason(x) is not None else None
+
+
+def _group_cell(row: pd.Series, runs: list[tuple[str, str, dict]], sim_rest: pd.DataFrame,
+                sim: pd.DataFrame | None) -> _Cell:
+    """Group a cell's settled records by attractor, the map's own run first (its verdict
+    ``diverged`` / ``unsettled`` stands)."""
+    import json
+
+    from analysis.attractors import group_records
+    from analysis.pipeline.stages import poincare_array
+    from analysis.regimes import DIVERGED, UNSETTLED
+
+    pid = row["point_id"]
+    recs = [sim_rest.loc[pid]] + [sim.loc[rid] for _, rid, _ in runs]
+    status = [_status(r) for r in recs]
+    if row["label"] in (DIVERGED, UNSETTLED):
+        status[0] = row["label"]
+    ok = [k for k, s in enumerate(status) if s is None]
+    settled = [poincare_array(recs[k]["poincare_state"]) for k in ok]
+    groups = [[ok[i] for i in g] for g in group_records(settled)] if ok else []
+    return _Cell(row, [REST] + [name for name, _, _ in runs], [pid] + [rid for _, rid, _ in runs],
+                 [json.loads(row["params_json"])] + [p for _, _, p in runs], recs, status, groups)
+
+
+def _label_new_attractors(cells: Sequence[_Cell], sim: pd.DataFrame | None, nm: Numerics, store_root: str,
+                          threads: int) -> dict:
+    """Lyapunov and classifier stages for one representative (the first run) of every group
+    without the map's own run.  Returns run id -> its classified row with ``lle_*``."""
+    from analysis.pipeline.stages import classify_points, lle_resolution, lyapunov_points
+
     reps: dict[str, dict] = {}
-    for _, row in cells.iterrows():
-        pid = row["point_id"]
-        names = [REST] + [name for name, _, _ in runs[pid]]
-        recs = [sim_rest.loc[pid]] + [sim.loc[rid] for _, rid, _ in runs[pid]]
-        ids = [pid] + [rid for _, rid, _ in runs[pid]]
-        params = [json.loads(row["params_json"])] + [p for _, _, p in runs[pid]]
-        status = [settled(r) for r in recs]
-        if row["label"] in (DIVERGED, UNSETTLED):  # the map's verdict on its own run stands
-            status[0] = row["label"]
-        ok = [k for k, s in enumerate(status) if s is None]
-        groups = [[ok[i] for i in g] for g in group_records([poincare_array(recs[k]["poincare_state"])
-                                                               for k in ok])] if ok else []
-        for g in groups:
+    for c in cells:
+        for g in c.groups:
             if 0 not in g:
-                reps.setdefault(ids[g[0]], {"point_id": ids[g[0]], "params": params[g[0]]})
-        grouped.append((row, names, ids, recs, status, groups))
+                reps.setdefault(c.ids[g[0]], {"point_id": c.ids[g[0]], "params": c.params[g[0]]})
+    if not reps:
+        return {}
+    rep_pts = list(reps.values())
+    rep_sim = sim.loc[[p["point_id"] for p in rep_pts]].reset_index()
+    lyap = lyapunov_points(rep_pts, rep_sim, nm, store_root, threads)
+    cls = classify_points(rep_sim, lyap, lle_threshold=lle_resolution(nm))
+    merged = cls.merge(lyap[["point_id", "lle_mean", "lle_lo", "lle_hi"]], on="point_id")
+    return {m["point_id"]: m for _, m in merged.iterrows()}
 
-    labels: dict = {}
-    if reps:
-        rep_pts = list(reps.values())
-        rep_sim = sim.loc[[p["point_id"] for p in rep_pts]].reset_index()
-        lyap = lyapunov_points(rep_pts, rep_sim, nm, store_root, threads)
-        cls = classify_points(rep_sim, lyap, lle_threshold=lle_resolution(nm))
-        merged = cls.merge(lyap[["point_id", "lle_mean", "lle_lo", "lle_hi"]], on="point_id")
-        for _, m in merged.iterrows():
-            labels[m["point_id"]] = m
 
-    out = []
-    for row, names, ids, recs, status, groups in grouped:
-        period_t = 2.0 * np.pi / float(row["omega"])
-        base = {"point_id": row["point_id"]} | {a: row[a] for a in axes} | {"weight": float(row["weight"])}
-        rows = []
-        for a, g in enumerate(groups):
-            if 0 in g:
-                lab = {"label": row["label"], "period": row["period"], "reason": row["reason"],
-                       "lle_mean": row["lle_mean"], "lle_lo": row["lle_lo"], "lle_hi": row["lle_hi"]}
-            else:
-                lab = labels[ids[g[0]]]
+def _cell_rows(cell: _Cell, labels: Mapping[str, pd.Series], axes: Sequence[str]) -> list[dict]:
+    """The table rows of one cell (:func:`cell_attractors`)."""
+    from analysis.pipeline.convergence import label_text
+    from analysis.pipeline.stages import poincare_array
+    from analysis.regimes import DIVERGED, UNSETTLED
+
+    row, names, ids = cell.row, cell.names, cell.ids
+    period_t = 2.0 * np.pi / float(row["omega"])
+    base = {"point_id": row["point_id"]} | {a: row[a] for a in axes} | {"weight": float(row["weight"])}
+    rows = []
+    for a, g in enumerate(cell.groups):
+        lab = row if 0 in g else labels[ids[g[0]]]  # the map's own attractor keeps its label
+        rows.append(base | {
+            "attractor": a, "starts": [names[k] for k in g], "label": lab["label"],
+            "period": lab["period"], "label_text": label_text(lab["label"], lab["period"]),
+            "lle_T": _num(lab["lle_mean"]) * period_t, "lle_lo_T": _num(lab["lle_lo"]) * period_t,
+            "lle_hi_T": _num(lab["lle_hi"]) * period_t, "reason": lab["reason"], "run_id": ids[g[0]],
+            "poincare_w_tip": poincare_array(cell.recs[g[0]]["poincare_tip"])[:, 0].tolist()})
+    for verdict in (UNSETTLED, DIVERGED):
+        left = [k for k, s in enumerate(cell.status) if s == verdict]
+        if left:
             rows.append(base | {
-                "attractor": a, "starts": [names[k] for k in g], "label": lab["label"],
-                "period": lab["period"], "label_text": label_text(lab["label"], lab["period"]),
-                "lle_T": _num(lab["lle_mean"]) * period_t, "lle_lo_T": _num(lab["lle_lo"]) * period_t,
-                "lle_hi_T": _num(lab["lle_hi"]) * period_t, "reason": lab["reason"], "run_id": ids[g[0]],
-                "poincare_w_tip": poincare_array(recs[g[0]]["poincare_tip"])[:, 0].tolist()})
-        for verdict in (UNSETTLED, DIVERGED):
-            left = [k for k, s in enumerate(status) if s == verdict]
-            if left:
-                rows.append(base | {
-                    "attractor": None, "starts": [names[k] for k in left], "label": verdict, "period": None,
-                    "label_text": verdict, "lle_T": np.nan, "lle_lo_T": np.nan, "lle_hi_T": np.nan,
-                    "reason": ("integration diverged" if verdict == DIVERGED
-                               else "record still a transient at the adaptive transient's cap"),
-                    "run_id": ids[left[0]], "poincare_w_tip": None})
-        regimes = {r["label_text"] for r in rows if r["attractor"] is not None and r["label"] in VERDICTS}
-        for r in rows:
-            r.update(n_starts=len(names), n_attractors=len(groups), n_regimes=len(regimes),
-                     multistable=len(groups) > 1)
-        out += rows
-    res = pd.DataFrame(out)
-    res["attractor"] = res["attractor"].astype("Int64")
-    res["period"] = res["period"].astype("Int64")
-    return res
+                "attractor": None, "starts": [names[k] for k in left], "label": verdict, "period": None,
+                "label_text": verdict, "lle_T": np.nan, "lle_lo_T": np.nan, "lle_hi_T": np.nan,
+                "reason": ("integration diverged" if verdict == DIVERGED
+                           else "record still a transient at the adaptive transient's cap"),
+                "run_id": ids[left[0]], "poincare_w_tip": None})
+    regimes = {r["label_text"] for r in rows if r["attractor"] is not None and r["label"] in VERDICTS}
+    for r in rows:
+        r.update(n_starts=len(names), n_attractors=len(cell.groups), n_regimes=len(regimes),
+                 multistable=len(cell.groups) > 1)
+    return rows
 
 
 def cell_summary(attractors: pd.DataFrame) -> pd.DataFrame:

@@ -62,7 +62,8 @@ def test_multistable_cells_are_marked(tmp_path, axes) -> None:
         n = 1 if i == 0 else 2
         for a in range(n):
             rows.append({"point_id": r["point_id"], **{k: r[k] for k in axes}, "weight": 1.0, "attractor": a,
-                         "starts": ["rest"], "label": ["periodic", "chaotic"][a], "period": [1, None][a],
+                         "starts": [["rest"], ["perturbed0"]][a], "label": ["periodic", "chaotic"][a],
+                         "period": [1, None][a],
                          "label_text": ["periodic-1", "chaotic"][a], "poincare_w_tip": [0.1, 0.2],
                          "n_starts": 3, "n_attractors": n, "n_regimes": n, "multistable": n > 1})
     att = pd.DataFrame(rows)
@@ -84,6 +85,6 @@ def test_multistable_cells_are_marked(tmp_path, axes) -> None:
     if len(axes) == 2:
         assert "run from other starts (2)" in saved["legend"]
         assert "attractors of two regimes (1)" in saved["legend"]
-        assert "several attractors, one regime (0)" in saved["legend"]
+        assert "several attractors, regimes not shown to differ (0)" in saved["legend"]
     else:
         assert "other attractors (other starts)" in saved["legend"]
