@@ -31,7 +31,7 @@ def allowed(schema: dict) -> str:
 def _one_line(err) -> str:
     key = ".".join(map(str, err.absolute_path)) or "(top level)"
     if err.validator in ("minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum", "enum", "type"):
-        what = err.schema.get("description", "")
+        what = " ".join(str(err.schema.get("description", "")).split())  # a folded YAML text: one line
         return f"{key} = {err.instance!r} ({what}); allowed: {allowed(err.schema)}"
     if err.validator == "additionalProperties":
         keys = sorted(err.schema.get("properties", {}))
@@ -137,7 +137,7 @@ def validate_grid_values(grids: dict, model_schema: dict, grid_file: str) -> Non
                                     f"{', '.join(sorted(props))} [{grid_file}]")
             if list(jsonschema.Draft202012Validator(props[key]).iter_errors(value)):
                 raise WorkflowError(f"invalid config: grids.{name}.{where} = {value!r} "
-                                    f"({props[key].get('description', '')}); allowed: "
+                                    f"({' '.join(str(props[key].get('description', '')).split())}); allowed: "
                                     f"{allowed(props[key])} [{grid_file}]")
 
 

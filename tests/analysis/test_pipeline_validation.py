@@ -92,6 +92,18 @@ def test_unreadable_grid_file_is_one_line(tmp_path, text, words):
     assert msg.startswith("invalid config:") and words in msg and "\n" not in msg, msg
 
 
+def test_a_key_with_a_folded_description_is_still_one_line():
+    """A schema description written as a folded YAML text (``lines`` of a grid) spans several
+    lines; the refusal quoting it must not (found by tests/workflow/test_config_mutations.py:
+    ``lines:`` left empty)."""
+    grid = yaml.safe_load((ROOT / "config" / "grid.yaml").read_text())
+    grid["grids"]["default"]["lines"] = None
+    with pytest.raises(WorkflowError) as err:
+        validate_config(grid, ROOT / "workflow" / "schemas" / "grid.schema.yaml", "grid.yaml")
+    assert str(err.value).startswith("invalid config: grids.default.lines = None (1-D lines")
+    assert "\n" not in str(err.value)
+
+
 def test_unknown_key_gets_a_did_you_mean():
     cfg = _config()
     cfg["numerics"]["n_trasient"] = 10
