@@ -3,7 +3,7 @@ counted and labelled.
 
 A map runs each point from rest; the beam with dry friction is hysteretic and multistable, so a
 cell may hold other attractors than the one the start from rest finds.  :func:`cell_attractors`
-re-runs every point of a finished map from
+re-runs cells of a finished map (a seeded sample stratified by label, or every cell) from
 
 * the end states of its neighbours on the grid, along each axis and in both directions (the
   neighbour's full state from its own start from rest: coordinates, velocities, Jenkins slips

@@ -30,6 +30,13 @@ def allowed(schema: dict) -> str:
 
 def _one_line(err) -> str:
     key = ".".join(map(str, err.absolute_path)) or "(top level)"
+    alt = err if err.validator in ("oneOf", "anyOf") else err.parent
+    scalar = ("integer", "number", "string", "boolean")
+    if (alt is not None and alt.validator in ("oneOf", "anyOf")  # scalar alternatives: integer or "all"
+            and all(s.get("type") in scalar for s in alt.schema[alt.validator])):
+        what = " ".join(str(alt.schema.get("description", "")).split())
+        options = " or ".join(allowed(s) for s in alt.schema[alt.validator])
+        return f"{key} = {alt.instance!r} ({what}); allowed: {options}"
     if err.validator in ("minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum", "enum", "type"):
         what = " ".join(str(err.schema.get("description", "")).split())  # a folded YAML text: one line
         return f"{key} = {err.instance!r} ({what}); allowed: {allowed(err.schema)}"

@@ -104,6 +104,19 @@ def test_a_key_with_a_folded_description_is_still_one_line():
     assert "\n" not in str(err.value)
 
 
+@pytest.mark.parametrize("value", [-1, "some", 1.5, True])
+def test_a_key_with_alternatives_names_all_of_them(value):
+    """``multistability.sample`` is an integer or ``all``: a bad value gets the key, the
+    description and both alternatives in one line."""
+    cfg = _config()
+    cfg["multistability"]["sample"] = value
+    with pytest.raises(WorkflowError) as err:
+        validate_config(cfg, SCHEMA, "config")
+    msg = str(err.value)
+    assert msg.startswith(f"invalid config: multistability.sample = {value!r} (cells of each grid")
+    assert msg.endswith("allowed: integer and >= 0 and <= 100000 or one of all [config]") and "\n" not in msg
+
+
 def test_unknown_key_gets_a_did_you_mean():
     cfg = _config()
     cfg["numerics"]["n_trasient"] = 10
