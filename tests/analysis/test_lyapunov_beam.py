@@ -184,22 +184,33 @@ def test_chaotic_point_is_chaotic_for_both_estimators():
 @pytest.mark.slow
 def test_stefanski_agrees_with_benettin_at_a_two_mode_chaotic_point():
     """Issue 4's check "at a chaotic point Stefanski and Benettin agree within 10 %", at a
-    two-mode point (mu_s / mu_k = 1.5), started where the pipeline starts (after 60 + 128
-    periods at step factor 1.0), 100-period windows.  Measured: Stefanski 0.594, Benettin
-    0.584 per period (ratio 1.017); the ladder seeded by Benettin's value gives Stefanski 0.5942
-    in 3 rounds, the factor-2 ladder 0.5943 in 4.  Not a property of every stretch of this
-    attractor: from states 60 and 140 periods later the ratio was 1.026 and 1.209, at step factor 0.25 1.073,
-    over 200 periods 1.064 (docs/lyapunov.md s.7); at the three-mode point above it is 1.6-1.8."""
+    two-mode point (mu_s / mu_k = 1.5), on three 100-period stretches of its attractor: from
+    where the pipeline starts (after 60 + 128 periods at step factor 1.0) and from 60 and 140
+    periods later.  One stretch is not enough: on a chaotic attractor the window value depends
+    on the stretch, and the stretch on the CPU (the kernels' vectorisation and FMA follow the
+    host; docs/reliability.md).  Stefanski / Benettin measured on the three stretches (ratios):
+    1.017, 1.026, 1.209 on one CPU, 1.293, 1.097, 1.051 on another (docs/lyapunov.md s.7).
+    Asserted: both chaotic on every stretch, Stefanski an upper bound within Benettin's window
+    noise (>= 0.95 of it), and the median ratio within 10 %."""
     pp = prepare_point(**CHAOTIC_2MODES)
     r = simulate_batch([CHAOTIC_2MODES], n_transient=60, n_record=128, method="rk4", step_factor=1.0,
                        n_threads=2)[0]
-    scale = attractor_scale(r.poincare_state, response_scale(pp), pp.omega)[None]
+    later = [r]
+    for n in (60, 80):  # states 60 and 140 periods after the pipeline's start
+        later.append(simulate_batch([CHAOTIC_2MODES | restart_params(later[-1])], n_transient=0, n_record=n,
+                                    method="rk4", step_factor=1.0, n_threads=1)[0])
+    scale = attractor_scale(r.poincare_state, response_scale(pp), pp.omega)
     T = 2 * math.pi / pp.omega
-    est = beam_lle([pp], r.final_state[None], scale, n_periods=100, n_threads=2)[0]
-    st, be = est.stefanski.value * T, est.benettin.value * T
-    assert est.stefanski.chaotic and est.stefanski.verdict.startswith("chaotic"), est.stefanski.verdict
-    assert be > 2 * 5.0 / 100, be  # chaotic by Benettin too, well above the resolution
-    assert abs(st / be - 1.0) <= 0.10, (st, be)
+    ests = beam_lle([pp] * 3, np.stack([x.final_state for x in later]), np.stack([scale] * 3),
+                    n_periods=100, n_threads=2)
+    ratios = []
+    for est in ests:
+        st, be = est.stefanski.value * T, est.benettin.value * T
+        assert est.stefanski.chaotic and est.stefanski.verdict.startswith("chaotic"), est.stefanski.verdict
+        assert be > 2 * 5.0 / 100, be  # chaotic by Benettin too, well above the resolution
+        assert st >= 0.95 * be, (st, be)
+        ratios.append(st / be)
+    assert abs(float(np.median(ratios)) - 1.0) <= 0.10, ratios
 
 
 def test_continued_record_equals_one_long_run(settled):
