@@ -118,6 +118,14 @@ class Geometry:
         elastic-stick model: the real stuck interface is rigid), which every stick/slip switch
         excites.  Why parallel and not stick-only, and the measured modal damping:
         docs/model.md.  0 = none (the paper).
+    interface_viscosity : ``c_t`` itself (interface traction per unit slip rate, in the
+        model's units: tractions / E, lengths / R, time / sqrt(rho R^2 / E)), a dashpot
+        coefficient independent of ``k_t`` and ``omega_max``, in place of the rule of
+        ``interface_damping`` (give one of the two: ``interface_damping`` must then be 0).
+        With the rule, ``c_t = 2 zeta_t k_t / omega_max`` grows with ``k_t`` (``omega_max``
+        grows more slowly), and so does the viscous traction in slip; with a fixed ``c_t`` a
+        stiffer stick changes only the stick (docs/pipeline.md, the k_t study).  ``None`` =
+        use ``interface_damping``.
     bc : end conditions of the arch modes (the paper: clamped-free).
     alpha_modes : thickness of the single layer whose modes are the basis
         (``None`` -> ``(alpha1 + alpha2) / 2``).
@@ -133,6 +141,7 @@ class Geometry:
     n_quad: int | None = None
     damping: float = 0.0
     interface_damping: float = 0.0
+    interface_viscosity: float | None = None
     bc: str = "clamped-free"
     alpha_modes: float | None = None
 
@@ -164,6 +173,17 @@ class Geometry:
             raise ValueError("interface_damping must be <= 10 (damping ratio of the stiffest "
                              f"stuck-interface mode), got {self.interface_damping!r}")
         object.__setattr__(self, "interface_damping", zt)
+        if self.interface_viscosity is not None:
+            ct = check_nonnegative("interface_viscosity", self.interface_viscosity)
+            if ct > 10.0:
+                raise ValueError("interface_viscosity must be <= 10 (c_t, interface traction per "
+                                 f"unit slip rate), got {self.interface_viscosity!r}")
+            if zt > 0:
+                raise ValueError("give only one of interface_damping (> 0) and interface_viscosity "
+                                 f"(got interface_damping={zt!r}, interface_viscosity={ct!r}); set "
+                                 "interface_viscosity: null to use interface_damping, or "
+                                 "interface_damping: 0 to use interface_viscosity")
+            object.__setattr__(self, "interface_viscosity", ct)
         if self.bc not in BCS:
             raise ValueError(f"bc must be one of {BCS}, got {self.bc!r}")
         am = basis_thickness(a1, a2, None if self.alpha_modes is None
@@ -243,7 +263,8 @@ class TwoLayerModel:
     wq: np.ndarray = field(repr=False)
     g: np.ndarray = field(repr=False)
     tip: np.ndarray = field(repr=False)
-    #: viscous interface traction per unit slip rate (the dashpot of ``interface_damping``);
+    #: viscous interface traction per unit slip rate (``interface_viscosity``, or the dashpot
+    #: rule of ``interface_damping``);
     #: ``C = C_struct + c_t S^T diag(wq) S``
     c_t: float = 0.0
     C_struct: np.ndarray | None = field(default=None, repr=False)
@@ -469,10 +490,13 @@ def build_model(geom: Geometry) -> TwoLayerModel:
         C = np.zeros((n, n))
     C_struct = C
     c_t = 0.0
-    if geom.interface_damping > 0:
+    if geom.interface_viscosity is not None:
+        c_t = geom.interface_viscosity
+    elif geom.interface_damping > 0:
         KI = (S.T * (geom.k_t * wq)) @ S
         om_max = math.sqrt(max(sla.eigh(K + KI, M, eigvals_only=True)[-1], 0.0))
         c_t = 2.0 * geom.interface_damping * geom.k_t / om_max
+    if c_t > 0:
         CI = (S.T * (c_t * wq)) @ S
         C = C_struct + 0.5 * (CI + CI.T)
     return TwoLayerModel(geom=geom, modes=modes, M=M, K=K, C=C, S=S, theta_q=theta_q, wq=wq,

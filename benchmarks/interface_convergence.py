@@ -10,6 +10,17 @@ stages, then its refinements (default ``k_t`` and ``modes``), and prints how man
     .venv/bin/python benchmarks/interface_convergence.py --set damping=0.01
     .venv/bin/python benchmarks/interface_convergence.py --set damping=0.0 --refinements k_t
 
+Without a finished map, ``--cells N`` draws N points of the grid (``--grid``) uniformly with the
+convergence seed instead, and the variant's own map is the reference of its refinements (the
+k_t study of docs/pipeline.md):
+
+    .venv/bin/python benchmarks/interface_convergence.py --cells 20 --set k_t=30 --refinements k_t
+    .venv/bin/python benchmarks/interface_convergence.py --cells 20 --set k_t=30 \
+        --set interface_damping=0 --set interface_viscosity=0.0939 --refinements k_t
+
+``--refinements`` with no name prints the variant's labels only; ``--config`` with a
+``grid_file`` of its own runs the cells of another grid (e.g. a 1-D line through a band).
+
 A few minutes per refinement on 2 cores (20 points); the runs go to a throw-away store.
 """
 
@@ -21,6 +32,7 @@ import json
 import tempfile
 import time
 
+import numpy as np
 import pandas as pd
 import yaml
 
@@ -29,9 +41,10 @@ from analysis.pipeline.convergence import (
     ConvergenceSettings,
     convergence_runs,
     convergence_summary,
+    label_text,
     sample_points,
 )
-from analysis.pipeline.grid import point_id
+from analysis.pipeline.grid import expand_grid, point_id
 from analysis.pipeline.stages import (
     classify_points,
     lle_resolution,
@@ -45,10 +58,14 @@ from analysis.pipeline.table import assemble_regime_table
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--table", default="results/regimes/default.parquet")
+    ap.add_argument("--cells", type=int, default=0,
+                    help="sample this many grid points without a map (0: the map's convergence sample)")
+    ap.add_argument("--grid", default="default", help="grid of config/grid.yaml for --cells")
     ap.add_argument("--config", default="config/config.yaml")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="model override of the variant (repeatable), e.g. damping=0.01")
-    ap.add_argument("--refinements", nargs="+", default=["k_t", "modes"])
+    ap.add_argument("--refinements", nargs="*", default=["k_t", "modes"],
+                    help="refinements of convergence_runs (none: the variant's map only)")
     ap.add_argument("--threads", type=int, default=2)
     args = ap.parse_args()
 
@@ -57,9 +74,14 @@ def main() -> None:
     conv = ConvergenceSettings.from_dict(cfg.get("convergence"))
     register_cached_modes(sorted(glob.glob("results/modes/*/modes.parquet")))
     overrides = {k: yaml.safe_load(v) for k, v in (s.split("=", 1) for s in args.set)}
-    sample = sample_points(pd.read_parquet(args.table), conv.sample, conv.seed)
+    if args.cells:
+        sample = grid_cells(cfg, args.grid, args.cells, conv.seed, nm)
+        source = f"grid {args.grid} (no map)"
+    else:
+        sample = sample_points(pd.read_parquet(args.table), conv.sample, conv.seed)
+        source = args.table
     axes = [a for a in ("Omega", "f0_rel") if a in sample.columns]
-    print(f"variant {overrides or 'shipped model'}; {len(sample)} sampled points of {args.table}")
+    print(f"variant {overrides or 'shipped model'}; {len(sample)} sampled points of {source}")
 
     with tempfile.TemporaryDirectory() as store:
         t0 = time.perf_counter()
@@ -70,17 +92,46 @@ def main() -> None:
         sim = simulate_points(pts, nm, store, args.threads)
         lyap = lyapunov_points(pts, sim, nm, store, args.threads)
         table = assemble_regime_table(pts, sim, lyap, classify_points(sim, lyap, lle_resolution(nm)))
+        changed = ("" if args.cells else "; changed against the shipped map: "
+                   f"{int((table['label'].to_numpy() != sample['label'].to_numpy()).sum())}/{len(table)}")
         print(f"variant map: {time.perf_counter() - t0:.0f} s; labels "
-              f"{table['label'].value_counts().to_dict()}; changed against the shipped map: "
-              f"{int((table['label'].to_numpy() != sample['label'].to_numpy()).sum())}/{len(table)}")
+              f"{table['label'].value_counts().to_dict()}{changed}")
+        for _, row in table.iterrows():
+            lab = label_text(row["label"], row["period"])
+            print(f"  {where(row, axes)}: {lab} "
+                  f"(lambda_1 T {row['lle_mean'] * 2 * np.pi / row['omega']:.3f})")
         runs = []
         every = ConvergenceSettings(sample=len(table), seed=conv.seed)
         for ref in args.refinements:
             t0 = time.perf_counter()
             runs.append(convergence_runs(table, ref, nm, every, store, axes=axes, threads=args.threads))
             print(f"{ref}: {time.perf_counter() - t0:.0f} s")
-        summary = convergence_summary(pd.concat(runs, ignore_index=True))
+        if not runs:
+            return
+        runs = pd.concat(runs, ignore_index=True)
+        for _, r in runs[~runs["holds"]].iterrows():
+            was = label_text(r["label"], r["period"])
+            now = label_text(r["refined_label"], r["refined_period"])
+            print(f"  {r['refinement']}: {where(r, axes)}: {was} -> {now} "
+                  f"(lambda_1 T {r['lle_T']:.3f} -> {r['refined_lle_T']:.3f})")
+        summary = convergence_summary(runs)
         print(summary[["what", "n", "held", "contradicted", "flips"]].to_string(index=False))
+
+
+def where(row: pd.Series, axes: list[str]) -> str:
+    """The axis values of a row, e.g. ``Omega 1.850 f0_rel 1.700``."""
+    return " ".join(f"{a} {row[a]:.3f}" for a in axes)
+
+
+def grid_cells(cfg: dict, grid: str, n: int, seed: int, nm: Numerics) -> pd.DataFrame:
+    """``n`` points of ``grid`` (config/grid.yaml), drawn uniformly with ``seed``, in grid
+    order, as rows with ``params_json`` and the axis values (the shape of a map's sample)."""
+    grids = yaml.safe_load(open(cfg.get("grid_file", "config/grid.yaml")))["grids"]
+    points = expand_grid(grid, grids[grid], cfg["model"], nm)
+    pick = np.sort(np.random.default_rng(seed).choice(len(points), size=min(n, len(points)), replace=False))
+    rows = [{"params_json": json.dumps(points[k].params)}
+            | {a: points[k].params[a] for a in grids[grid]["axes"]} for k in pick]
+    return pd.DataFrame(rows)
 
 
 if __name__ == "__main__":

@@ -58,7 +58,7 @@ def _axis_label(name: str) -> str:
 
 def _fixed_title(grid_name: str, table: pd.DataFrame, axes: list[str]) -> str:
     keys = ["law", "mu_s", "mu_k", "p", "n_modes", "alpha1", "alpha2", "beta", "k_t", "damping",
-            "interface_damping",
+            "interface_damping", "interface_viscosity",
             "f0_rel", "Omega"]
     parts = []
     for k in keys:

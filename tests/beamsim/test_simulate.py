@@ -390,13 +390,55 @@ def test_interface_damping_spares_the_structural_modes():
     assert np.array_equal(m0.C, np.zeros((n, n)))
 
 
-def test_energy_balance_with_interface_damping():
-    """The ledger closes with the interface dashpot (its dissipation is D_damping)."""
-    r = simulate(f0_rel=3.0, Omega=1.5, mu_s=0.45, mu_k=0.3, interface_damping=0.5, n_modes=1,
-                 n_transient=0, n_record=20)
+def _fastest_stuck_mode_damping(m) -> float:
+    """Damping ratio of the fastest stuck mode of model ``m`` (complex eigenvalues of the
+    first-order stuck system)."""
+    import scipy.linalg as sla
+
+    n = m.n
+    A = np.block([[np.zeros((n, n)), np.eye(n)],
+                  [-np.linalg.solve(m.M, m.K_stuck), -np.linalg.solve(m.M, m.C)]])
+    lam = sla.eigvals(A)
+    lam = lam[lam.imag > 0]
+    lam = lam[np.argmax(np.abs(lam))]
+    return float(-lam.real / abs(lam))
+
+
+def test_interface_viscosity_is_a_fixed_dashpot_coefficient():
+    """``interface_viscosity`` gives c_t itself: the value of the zeta_t rule reproduces that
+    model's damping matrix; under k_t x 3 it stays what it was (the rule's grows like
+    sqrt(k_t)), and the fastest stuck mode's damping ratio follows the first-order modal
+    estimate c_t omega_max e_max / (2 k_t) of the stiffer model (an eigen-analysis against a
+    closed form)."""
+    g = dict(alpha1=ALPHA, beta=BETA, n_modes=2)
+    rule = build_model(Geometry(**g, interface_damping=0.5))
+    same = build_model(Geometry(**g, interface_viscosity=rule.c_t))
+    assert same.c_t == rule.c_t
+    assert np.allclose(same.C, rule.C, rtol=1e-13, atol=1e-13 * np.abs(rule.C).max())
+    rule3 = build_model(Geometry(**g, k_t=30.0, interface_damping=0.5))
+    fixed3 = build_model(Geometry(**g, k_t=30.0, interface_viscosity=rule.c_t))
+    print(f"\nc_t: rule at k_t 10 {rule.c_t:.4g}, at k_t 30 {rule3.c_t:.4g}; fixed {fixed3.c_t:.4g}")
+    assert fixed3.c_t == rule.c_t and rule3.c_t > 1.5 * rule.c_t
+    m0 = build_model(Geometry(**g, k_t=30.0))
+    lam_s, phi_s = m0.eig_stuck
+    share = phi_s[:, -1] @ m0.K_interface @ phi_s[:, -1] / lam_s[-1]
+    estimate = rule.c_t * math.sqrt(lam_s[-1]) * share / (2 * 30.0)
+    zeta = _fastest_stuck_mode_damping(fixed3)
+    print(f"fastest stuck mode at k_t 30, c_t fixed: zeta {zeta:.4g}, estimate {estimate:.4g}, "
+          f"rule's {_fastest_stuck_mode_damping(rule3):.4g}")
+    assert abs(zeta - estimate) < 0.05 * estimate
+
+
+@pytest.mark.parametrize("dashpot", [dict(interface_damping=0.5),
+                                     dict(k_t=30.0, interface_viscosity=0.09)])
+def test_energy_balance_with_interface_damping(dashpot):
+    """The ledger closes with the interface dashpot (its dissipation is D_damping): the rule
+    of ``interface_damping`` and a fixed ``interface_viscosity`` on a stiffer stick."""
+    r = simulate(f0_rel=3.0, Omega=1.5, mu_s=0.45, mu_k=0.3, n_modes=1, n_transient=0,
+                 n_record=20, **dashpot)
     W = r.energy[-1, 0]
     res = abs(r.energy_residual[-1]) / W
-    print(f"\ninterface damping: energy residual / W_in after 20 periods {res:.2e}, "
+    print(f"\n{dashpot}: energy residual / W_in after 20 periods {res:.2e}, "
           f"D_damping / W_in {r.energy[-1, 2] / W:.2e}, D_friction / W_in {r.energy[-1, 1] / W:.3f}")
     assert r.slipped and res < 1e-4
     assert r.energy[-1, 2] > 0

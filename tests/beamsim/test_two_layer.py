@@ -126,6 +126,9 @@ def test_f_cr_linear_in_mu_p_and_profile():
     (dict(k_t=float("inf")), "k_t"),
     (dict(damping=-0.1), "damping"),
     (dict(n_quad=0), "n_quad"),
+    (dict(interface_viscosity=-0.1), "interface_viscosity"),
+    (dict(interface_viscosity=11.0), "interface_viscosity"),
+    (dict(interface_damping=0.5, interface_viscosity=0.1), "interface_viscosity"),
 ])
 def test_bad_geometry_raises(kwargs, name):
     with pytest.raises(ValueError, match=name):

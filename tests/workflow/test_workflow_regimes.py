@@ -202,6 +202,9 @@ def test_same_table_whatever_the_chunk_size(first_run, tmp_path):
         ({"grids": {"g": {"axes": {"Omega": [1.0]}, "fixed": {"mu_s": 0.45, "mu_k": 0.9}}}},
          "mu_s must be >= mu_k"),
         ({"grids": {"g": {"axes": {"Omega": [1.0]}, "fixed": {"f0": 1e-5}}}}, "only one of f0 and f0_rel"),
+        ({"grids": {"g": {"axes": {"Omega": [1.0]}, "fixed": {"interface_damping": 0.5,
+                                                             "interface_viscosity": 0.1}}}},
+         "give only one of interface_damping (> 0) and interface_viscosity"),
         ({"grids": {"g": {"axes": {"Omega": [1.0]}, "fixed": {"Omega": 2.0}}}}, "both as axis and as fixed"),
         # continuation lines: one axis, one state size, valid values
         ({"grids": {"g": {"axes": {"Omega": [1.0]}, "lines": {"l": {"axes": {"n_modes": [1, 2]}}}}}},
