@@ -36,12 +36,15 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from analysis.continuation import state_params
 from analysis.pipeline.config import Numerics
 from analysis.pipeline.convergence import (
     ConvergenceSettings,
     convergence_runs,
     convergence_summary,
     label_text,
+    refine,
+    same_label,
     sample_points,
 )
 from analysis.pipeline.grid import expand_grid, point_id
@@ -53,6 +56,7 @@ from analysis.pipeline.stages import (
     simulate_points,
 )
 from analysis.pipeline.table import assemble_regime_table
+from beamsim.point import prepare_point
 
 
 def main() -> None:
@@ -66,6 +70,8 @@ def main() -> None:
                     help="model override of the variant (repeatable), e.g. damping=0.01")
     ap.add_argument("--refinements", nargs="*", default=["k_t", "modes"],
                     help="refinements of convergence_runs (none: the variant's map only)")
+    ap.add_argument("--continued", action="store_true",
+                    help="also run each refinement (not modes) from the variant's end state")
     ap.add_argument("--threads", type=int, default=2)
     args = ap.parse_args()
 
@@ -116,6 +122,39 @@ def main() -> None:
                   f"(lambda_1 T {r['lle_T']:.3f} -> {r['refined_lle_T']:.3f})")
         summary = convergence_summary(runs)
         print(summary[["what", "n", "held", "contradicted", "flips"]].to_string(index=False))
+        if args.continued:
+            for ref in args.refinements:
+                if ref != "modes":
+                    continued_run(table, sim, ref, nm, store, args.threads, axes)
+
+
+def continued_run(table: pd.DataFrame, sim: pd.DataFrame, refinement: str, nm: Numerics,
+                  store: str, threads: int, axes: list[str]) -> None:
+    """Run ``refinement`` of every point of ``table`` from the point's own end state (its
+    variant's run) instead of from rest, and print how many labels hold: whether the attractor
+    the variant reached persists under the refinement, apart from which attractor a start from
+    rest picks in a multistable cell."""
+    final = sim.set_index("point_id")["final_state"]
+    pts = []
+    for _, row in table.iterrows():
+        params, nm_r = refine(refinement, json.loads(row["params_json"]), nm)
+        model = prepare_point(**params).model
+        state = state_params(np.asarray(final[row["point_id"]], dtype=float), model.n, model.n_quad)
+        params |= {k: np.asarray(v, dtype=float).tolist() for k, v in state.items()}
+        pts.append({"point_id": point_id(params, nm_r), "params": params})
+    t0 = time.perf_counter()
+    sim_r = simulate_points(pts, nm_r, store, threads)
+    lyap_r = lyapunov_points(pts, sim_r, nm_r, store, threads)
+    cls = classify_points(sim_r, lyap_r, lle_resolution(nm_r)).set_index("point_id")
+    held = 0
+    for (_, row), pt in zip(table.iterrows(), pts):
+        r = cls.loc[pt["point_id"]]
+        if same_label(row["label"], row["period"], r["label"], r["period"]):
+            held += 1
+        else:
+            print(f"  {refinement} from the end state: {where(row, axes)}: "
+                  f"{label_text(row['label'], row['period'])} -> {label_text(r['label'], r['period'])}")
+    print(f"{refinement} from the end state: {held}/{len(table)} hold ({time.perf_counter() - t0:.0f} s)")
 
 
 def where(row: pd.Series, axes: list[str]) -> str:

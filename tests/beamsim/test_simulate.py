@@ -233,23 +233,23 @@ def test_newmark_agrees_with_rk4():
 
 
 def test_expo_agrees_with_rk4():
-    """The exact-propagation / event-location scheme agrees with the RK4 reference (default
-    model, stick-slip regime, mu_s = mu_k; undamped and damped) to its own accuracy."""
-    for extra in ({}, {"damping": 0.02}):
+    """The exact-propagation / event-location scheme agrees with a converged RK4 reference
+    (default model, stick-slip regime, mu_s = mu_k; undamped and damped): RK4 at step factors
+    0.125 and 0.0625 agree to < 1e-6 (the reference is converged), and expo is within 1e-4 of
+    it undamped (2500 located switches in 5 periods, the neutral directions of the undamped
+    structure keep every event-location error) and within 1e-5 damped (docs/model.md)."""
+    for extra, bound in (({}, 1e-4), ({"damping": 0.02}, 1e-5)):
         base = dict(n_modes=3, f0_rel=3.0, Omega=1.2, n_transient=2, n_record=3, **extra)
         ex = simulate(method="expo", **base)
-        d = []
-        rks = [simulate(step_factor=sf, **base) for sf in (0.5, 0.25)]
+        fine, finer = (simulate(step_factor=sf, **base) for sf in (0.125, 0.0625))
         size = np.abs(ex.poincare_state).max()
-        for rk in rks:
-            d.append(np.abs(rk.poincare_state - ex.poincare_state).max() / size)
-        d_rk = np.abs(rks[0].poincare_state - rks[1].poincare_state).max() / size
-        print(f"\nexpo vs RK4 (step_factor 0.5, 0.25) {extra}: {d}; RK4 h vs h/2: {d_rk:.1e}; "
+        d_ref = np.abs(fine.poincare_state - finer.poincare_state).max() / size
+        d = np.abs(finer.poincare_state - ex.poincare_state).max() / size
+        print(f"\nexpo vs converged RK4 {extra}: {d:.2e}; RK4 h/8 vs h/16: {d_ref:.1e}; "
               f"{ex.n_patterns} stick patterns, {ex.n_events} events")
         assert ex.slipped and 0 < ex.stick_fraction < 1
-        # RK4 (switches located) converges to expo as the step shrinks, until the difference
-        # reaches expo's own event-location error (~6e-6, docs/model.md)
-        assert max(d) < 1e-3 and (d[1] < 0.5 * d[0] or max(d) < 2e-5)
+        assert d_ref < 1e-6
+        assert d < bound
 
 
 def test_expo_energy_ledger_and_linear_limit():
