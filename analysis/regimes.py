@@ -99,6 +99,8 @@ __all__ = [
     "classify",
     "is_settled",
     "transient_reason",
+    "continuation_reason",
+    "poincare_signature",
     "lle_per_period_from_rate",
 ]
 
@@ -291,6 +293,49 @@ def transient_reason(
         j, amount = drift
         return (f"component {j} drifts by {amount:+.3g} of its spread over the record (least-squares "
                 "trend of the block means, significant against their scatter)")
+    return None
+
+
+def poincare_signature(poincare: ArrayLike) -> str:
+    """What the Poincare samples say on their own, without an exponent: ``"periodic-m"`` when
+    :func:`classify` finds a period ``m``, else ``"aperiodic"`` (quasi-periodic, chaotic or
+    undetermined are told apart only with the exponent, which a second record does not have)."""
+    res = classify(poincare)
+    return f"{PERIODIC}-{res.period}" if res.label == PERIODIC else "aperiodic"
+
+
+def continuation_reason(record: ArrayLike, continued: ArrayLike, *, max_change: float = 0.05,
+                        scale_floor_rtol: float = 0.1) -> str | None:
+    """Why a record that passed :func:`transient_reason` is still a transient, judged by running
+    on (``continued``: the samples of the next periods, same length), or ``None``.
+
+    Two tests: the records' :func:`poincare_signature` differ (a slowly decaying period-5
+    remnant that continuing turns into period 1, a torus that locks); or both are period ``m >
+    1`` and the size of the period-``m`` pattern (the largest range over the cycle of the
+    ``m`` phase means, per component scale of ``record``) changes by more than a factor ``1 +
+    max_change`` from one record to the next -- on a periodic orbit it is the same to round-off,
+    on a remnant converging to a fixed point or to a shorter period it falls geometrically.
+
+    This is what a referee does with a cell (run it longer): it catches transients slower than
+    the record, which the record's own trend tests cannot see (they compare parts of one record,
+    and a remnant decaying by 20 % per record shows no significant trend inside it)."""
+    a, b = poincare_signature(record), poincare_signature(continued)
+    n = np.asarray(continued).shape[0]
+    if a != b:
+        return f"continuing by {n} periods changes the record from {a} to {b}"
+    m = int(a.rsplit("-", 1)[1]) if a.startswith(PERIODIC) else 1
+    if m > 1:
+        x, y = np.asarray(record, dtype=float), np.asarray(continued, dtype=float)
+        s = component_scales(x, floor_rtol=scale_floor_rtol)
+
+        def size(z: np.ndarray) -> float:
+            means = np.array([z[k::m].mean(axis=0) for k in range(m)])
+            return float(np.max(np.ptp(means, axis=0) / s))
+
+        ratio = size(x) / max(size(y), 1e-300)
+        if abs(np.log(ratio)) > np.log1p(max_change):
+            return (f"continuing by {n} periods, the period-{m} pattern "
+                    f"{'shrinks' if ratio > 1 else 'grows'} by a factor {max(ratio, 1 / ratio):.3g}")
     return None
 
 

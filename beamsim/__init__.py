@@ -3,15 +3,25 @@
 Modules: ``modes`` (in-plane arch modes).
 
 The project parallelises over parameter points (numba threads, Snakemake jobs); the
-linear algebra it does is on tiny matrices (6x6 to 20x20), where a multi-threaded BLAS
-only adds overhead (measured: a 20x20 ``expm`` takes 26 us single-threaded and 16 ms with
-OpenBLAS threads competing for 2 busy cores).  Unless the user set them, BLAS thread
-counts are therefore pinned to 1 before numpy is first imported.
+linear algebra it does is on tiny matrices (6x6 to 100x100), where a multi-threaded BLAS
+only adds overhead and, worse, changes the last bits of LAPACK's results (an eigen-
+decomposition of ``expo`` split over two OpenBLAS threads rounds differently), which a
+stick-slip or chaotic trajectory then grows into another trajectory.  Results must not depend
+on the machine's thread settings, so every BLAS/LAPACK library of the process is pinned to
+one thread when beamsim is imported: the environment variables for libraries loaded later
+(``OPENBLAS_NUM_THREADS``, ``MKL_NUM_THREADS``, overriding any value: Snakemake sets them to a
+job's thread count), and :func:`threadpoolctl.threadpool_limits` for those already loaded.
+Parallelism comes from numba's threads over points, whose results do not depend on their
+number.
 """
 
 import os as _os
 
 for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    _os.environ.setdefault(_var, "1")
+    _os.environ[_var] = "1"
+
+from threadpoolctl import threadpool_limits as _threadpool_limits  # noqa: E402
+
+_threadpool_limits(limits=1, user_api="blas")
 
 __version__ = "0.1.0"

@@ -245,13 +245,13 @@ def _run_starts(cells: pd.DataFrame, starts: Mapping[str, list[tuple[str, dict]]
 
 def _status(rec: pd.Series) -> str | None:
     """``None`` for a record on an attractor, else the label saying why not."""
-    from analysis.pipeline.stages import poincare_array
-    from analysis.regimes import DIVERGED, UNSETTLED, transient_reason
+    from analysis.pipeline.stages import poincare_array, unsettled_reason
+    from analysis.regimes import DIVERGED, UNSETTLED
 
     x = poincare_array(rec["poincare_state"])
     if rec["diverged"] or not np.all(np.isfinite(x)):
         return DIVERGED
-    return UNSETTLED if transient_reason(x) is not None else None
+    return UNSETTLED if unsettled_reason(rec) is not None else None
 
 
 def _group_cell(row: pd.Series, runs: list[tuple[str, str, dict]], sim_rest: pd.DataFrame,

@@ -68,6 +68,12 @@ class Numerics:
         (:func:`analysis.regimes.transient_reason`) is continued from its end state by another
         ``n_transient`` periods and a new record, the old record joining the transient, while
         the transient stays within ``n_transient_max`` periods.
+    continuation_check : a record that passes the transient tests is continued once by
+        ``n_record`` periods from its end state; when the two records'
+        :func:`analysis.regimes.poincare_signature` differ (period ``m`` or aperiodic), the
+        later record becomes the record and is checked in turn, while the record starts within
+        ``n_transient_max`` periods; a point whose last check failed is ``unsettled``
+        (:func:`analysis.regimes.continuation_reason`).
     chunk_size : grid points per job (not part of a point's id).
     """
 
@@ -77,6 +83,7 @@ class Numerics:
     n_transient: int = 200
     n_record: int = 256
     n_transient_max: int = 1200
+    continuation_check: bool = True
     chunk_size: int = 100
     lyapunov: LyapunovNumerics = field(default_factory=LyapunovNumerics)
 

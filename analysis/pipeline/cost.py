@@ -11,6 +11,8 @@ The estimate is a cost model, ``seconds = c * periods / Omega``, per stage and p
   between the first run and the cap);
 * the adaptive transient adds one continuation (``n_transient + n_record`` periods) to the
   expected share :data:`EXTENDED_SHARE` of the points;
+* the continuation check (``numerics.continuation_check``) adds ``n_record`` periods to every
+  point (the checks that fail and run again are not in the estimate);
 * the convergence runs (:mod:`analysis.pipeline.convergence`; :func:`convergence_seconds`):
   per grid and pending refinement, the sample size times the mean estimate of the grid's points
   with that refinement applied (the sample is drawn from the finished map, so its points are
@@ -131,6 +133,8 @@ def point_seconds(params: Mapping, numerics: Numerics, model: Mapping, stages: I
         run = numerics.n_transient + numerics.n_record
         if numerics.n_transient_max >= numerics.n_transient + run:
             run *= 1.0 + EXTENDED_SHARE
+        if numerics.continuation_check:  # every settled record is continued once
+            run += numerics.n_record
         seconds += c * run * scale / omega
     if "lyapunov" in stages:
         c = _coefficient(model["lyapunov"], n_modes)

@@ -25,8 +25,9 @@ import numpy as np
 from analysis.pipeline.config import Numerics, as_numerics
 
 #: bump when a code change alters results for unchanged parameters (invalidates all ids)
-RESULTS_VERSION = "7"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
-#                        conjugate pairs with damping, kernels with reassociated sums
+RESULTS_VERSION = "8"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
+#                        conjugate pairs with damping, kernels with reassociated sums; 8: the
+#                        continuation check (the record kept is the continued one)
 
 
 def _canonical(value):

@@ -95,9 +95,16 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int) -> list[dict]:
     (:func:`analysis.regimes.transient_reason`) is continued from its end state by another
     ``n_transient`` periods and a fresh record of ``n_record`` periods (the old record joins the
     transient) while the transient stays within ``n_transient_max``; the record kept is the
-    last one, ``n_transient_used`` says after how many periods it starts.  A point's
-    continuation depends on its own record only (same result in any batch)."""
-    from analysis.regimes import transient_reason
+    last one, ``n_transient_used`` says after how many periods it starts.
+
+    Continuation check (``nm.continuation_check``): a record that passes those tests and starts
+    within ``n_transient_max`` periods is continued by ``n_record`` periods (no transient); the
+    continued record is kept, and when its :func:`analysis.regimes.poincare_signature` differs
+    from the first one's (:func:`analysis.regimes.continuation_reason`), it is tested in turn.
+    ``continuation_reason`` of the record is the last failed check's reason (``""`` when the
+    last check passed or none ran): :func:`unsettled_reason` reads it.  A point's continuation
+    depends on its own records only (same result in any batch)."""
+    from analysis.regimes import continuation_reason, transient_reason
     from beamsim.simulate import restart_params, simulate_batch
 
     kw = dict(n_record=nm.n_record, method=integrator(nm.method, points[0]["params"]),
@@ -107,28 +114,41 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int) -> list[dict]:
     used = [nm.n_transient] * len(points)
     t_start = [0.0] * len(points)  # time of the kept run's start
     first_slip = [(r.slipped, r.t_first_slip) for r in results]
+    checked = [not nm.continuation_check] * len(points)  # the record passed a continuation check
+    why_continued = [""] * len(points)
 
-    def still_transient(i: int) -> bool:
+    def next_run(i: int) -> str | None:
+        """``"transient"``, ``"check"`` or ``None`` (the point is done)."""
         r = results[i]
         x = r.poincare_state
         if r.diverged or not np.all(np.isfinite(x)):
-            return False
-        if used[i] + nm.n_record + nm.n_transient > nm.n_transient_max:
-            return False
-        return transient_reason(x) is not None
+            return None
+        if transient_reason(x) is not None:
+            fits = used[i] + nm.n_record + nm.n_transient <= nm.n_transient_max
+            return "transient" if fits else None
+        return None if checked[i] or used[i] > nm.n_transient_max else "check"
 
-    while todo := [i for i in range(len(points)) if still_transient(i)]:
-        ext = simulate_batch([restart_params(results[i]) for i in todo], n_transient=nm.n_transient,
-                             **kw).results
-        for i, r in zip(todo, ext):
-            t0 = (used[i] + nm.n_record) * 2.0 * np.pi / r.omega  # time at which ext started
-            if not first_slip[i][0] and r.slipped:
-                first_slip[i] = (True, t0 + r.t_first_slip)
-            used[i] += nm.n_record + nm.n_transient
-            t_start[i] = t0
-            results[i] = r
+    while todo := [(i, kind) for i in range(len(points)) if (kind := next_run(i)) is not None]:
+        for kind, n_tr in (("transient", nm.n_transient), ("check", 0)):
+            idx = [i for i, k in todo if k == kind]
+            if not idx:
+                continue
+            ext = simulate_batch([restart_params(results[i]) for i in idx], n_transient=n_tr, **kw).results
+            for i, r in zip(idx, ext):
+                t0 = (used[i] + nm.n_record) * 2.0 * np.pi / r.omega  # time at which ext started
+                if not first_slip[i][0] and r.slipped:
+                    first_slip[i] = (True, t0 + r.t_first_slip)
+                if kind == "check":
+                    why = (continuation_reason(results[i].poincare_state, r.poincare_state)
+                           if np.all(np.isfinite(r.poincare_state)) and not r.diverged else None)
+                    why_continued[i], checked[i] = why or "", why is None
+                else:
+                    why_continued[i] = ""  # a new record after a transient: not checked yet
+                used[i] += nm.n_record + n_tr
+                t_start[i] = t0
+                results[i] = r
     out = []
-    for r, n_tr, t_run, (slipped, t_slip) in zip(results, used, t_start, first_slip):
+    for r, n_tr, t_run, (slipped, t_slip), why in zip(results, used, t_start, first_slip, why_continued):
         energy = r.energy
         w_in = float(energy[-1, 0] - energy[0, 0])
         residual = r.energy_residual[-1] - r.energy_residual[0]
@@ -138,7 +158,7 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int) -> list[dict]:
             "final_state": r.final_state,
             "f0": r.f0, "f_cr": r.f_cr, "omega": r.omega, "Omega": r.Omega, "lam_f": r.lam_f,
             "steps_per_period": r.steps_per_period, "method": r.method,
-            "n_transient_used": int(n_tr),
+            "n_transient_used": int(n_tr), "continuation_reason": why,
             "diverged": bool(r.diverged), "t_diverged": t_run + r.t_diverged,
             "slipped": bool(slipped), "t_first_slip": t_slip,
             "stick_fraction": r.stick_fraction,
@@ -168,6 +188,19 @@ def simulate_points(points: Sequence[dict], numerics: Numerics | dict, store_roo
 
     recs = _cached_stage(points, store, compute, batch_size=max(2 * threads, 25), stage="simulate")
     return records_table(points, recs)
+
+
+def unsettled_reason(sim_row: pd.Series | dict) -> str | None:
+    """Why a simulate record (finite, not diverged) is still a transient, or ``None``: the
+    record's own tests (:func:`analysis.regimes.transient_reason`), then the last continuation
+    check (``continuation_reason``, :func:`simulate_runs`)."""
+    from analysis.regimes import transient_reason
+
+    why = transient_reason(poincare_array(sim_row["poincare_state"]))
+    if why is not None:
+        return why
+    why = sim_row.get("continuation_reason")
+    return why if isinstance(why, str) and why else None
 
 
 def records_table(points: Sequence[dict], recs: Sequence[dict]) -> pd.DataFrame:
@@ -237,7 +270,7 @@ LINEAR_VERDICT = "non-positive: linear (every element stuck over the record), la
 def long_record_exemption(sim_row: pd.Series, params: dict) -> str | None:
     """Why a point's label does not need the long Benettin record, or ``None`` when it does.
 
-    * the record is still a transient (:func:`analysis.regimes.transient_reason`): the label is
+    * the record is still a transient (:func:`unsettled_reason`): the label is
       ``unsettled`` whatever the exponent;
     * the record is periodic (:func:`analysis.regimes.classify` without an exponent finds a
       period): the period test over the whole record excludes chaos, and the classifier's
@@ -247,10 +280,10 @@ def long_record_exemption(sim_row: pd.Series, params: dict) -> str | None:
       so ``lambda_1 <= 0`` exactly (:data:`LINEAR_VERDICT`).  Not for the regularised laws,
       whose "stuck" (``|v| < eps_v``) is still the nonlinear traction law.
     """
-    from analysis.regimes import PERIODIC, classify, transient_reason
+    from analysis.regimes import PERIODIC, classify
 
     x = poincare_array(sim_row["poincare_state"])
-    if transient_reason(x) is not None:
+    if unsettled_reason(sim_row) is not None:
         return "not measured: the record is a transient (unsettled)"
     if classify(x).label == PERIODIC:
         return "not measured: periodic record (the period test excludes chaos)"
@@ -336,8 +369,9 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame,
     """Stage 3: a label per point from its Poincare samples and its largest Lyapunov exponent.
 
     Non-results first: ``diverged`` (the integrator flagged the point), ``unsettled``
-    (:func:`analysis.regimes.transient_reason` finds the record still a transient after the
-    adaptive transient's cap; the reason says which test); otherwise
+    (:func:`unsettled_reason` finds the record still a transient after the adaptive
+    transient's cap, by its own tests or by the continuation check; the reason says which);
+    otherwise
     :func:`analysis.regimes.classify` on the stroboscopic samples of all generalised
     coordinates and velocities, with ``lambda_1 T`` and its confidence interval from the block
     statistics of the long Benettin record (``lle_mean``, ``lle_lo``, ``lle_hi``); the interval
@@ -345,7 +379,7 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame,
     straddles it, or whose exponent the Poincare data contradict, is ``undetermined``.
     Where the statistics are missing (diverged copies) the other indicators decide alone.
     """
-    from analysis.regimes import DIVERGED, UNSETTLED, classify, transient_reason
+    from analysis.regimes import DIVERGED, UNSETTLED, classify
 
     lle = lyapunov.set_index("point_id")
     rows = []
@@ -358,7 +392,7 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame,
         row = {"point_id": pid, "label": None, "period": None, "reason": "", "K": np.nan,
                "spectral_growth": np.nan, "n_clusters": np.nan, "settled": False}
         x = poincare_array(sim["poincare_state"])
-        why_transient = None if (sim["diverged"] or not np.all(np.isfinite(x))) else transient_reason(x)
+        why_transient = None if (sim["diverged"] or not np.all(np.isfinite(x))) else unsettled_reason(sim)
         if sim["diverged"] or not np.all(np.isfinite(x)):
             row.update(label=DIVERGED, reason="integration diverged")
         elif why_transient is not None:

@@ -46,9 +46,9 @@ def test_only_points_without_a_store_record_count_as_new(tmp_path):
 def test_the_estimate_scales_with_simulated_time(tmp_path):
     one = estimate_run(_points([2.0]), Numerics(), tmp_path).cpu_seconds
     assert estimate_run(_points([4.0]), Numerics(), tmp_path).cpu_seconds == pytest.approx(one / 2)
-    # twice the periods of every run: the reference run (and its expected continuation), the
-    # Stefanski window and the expected long record
-    longer = Numerics(n_transient=2 * 200 + 256, n_transient_max=2400,
+    # twice the periods of every run: the reference run (its expected continuation and its
+    # continuation check), the Stefanski window and the expected long record
+    longer = Numerics(n_transient=2 * 200, n_record=2 * 256, n_transient_max=2400,
                       lyapunov=LyapunovNumerics(n_periods=50, block_periods=50, burn_in=50))
     assert estimate_run(_points([2.0], longer), longer, tmp_path).cpu_seconds == pytest.approx(2 * one)
 

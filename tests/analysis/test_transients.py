@@ -10,7 +10,15 @@ import pytest
 from test_regimes import LABELLED, P5, _chaotic_windows, add_noise, torus2
 
 from analysis.pipeline.stages import classify_points
-from analysis.regimes import PERIODIC, QUASI_PERIODIC, UNSETTLED, classify, transient_reason
+from analysis.regimes import (
+    PERIODIC,
+    QUASI_PERIODIC,
+    UNSETTLED,
+    classify,
+    continuation_reason,
+    poincare_signature,
+    transient_reason,
+)
 
 N = 257  # the pipeline's record: n_record + 1 samples
 
@@ -116,3 +124,81 @@ def test_which_points_need_the_long_record():
     assert long_record_exemption(row(torus, 1.0), {"law": "stick-slip"}) == LINEAR_VERDICT
     assert long_record_exemption(row(torus, 1.0), {"law": "full-slip"}) is None
     assert long_record_exemption(row(torus, 0.9), {}) is None
+
+
+# ----------------------------------------------------------------------------- continuation check
+@pytest.mark.parametrize("noise", [0.0, 1e-4])
+def test_continuing_a_settled_record_keeps_its_signature(noise: float) -> None:
+    """Two consecutive records of every labelled set (periodic, tori, chaos) and of stationary
+    chaotic windows pass the continuation check: no false alarm."""
+    for name, (gen, _, _) in LABELLED.items():
+        x = add_noise(gen(), noise)
+        assert continuation_reason(x[:N], x[N:2 * N]) is None, name
+    windows = _chaotic_windows(N, 20, 40)
+    for a, b in zip(windows[:-1], windows[1:]):
+        assert continuation_reason(a, b) is None
+
+
+@pytest.mark.parametrize("amp", [0.001, 0.003, 0.02])
+def test_continuing_a_slow_remnant_finds_the_transient(amp: float) -> None:
+    """A period-5 remnant decaying by 20 % per record passes the record's own tests (the decay
+    inside one record is below their resolution) and is read as period 5; the next record
+    differs (period 1 at the smallest amplitude, a smaller pattern at the others)."""
+    x = remnant(amp, 1.2**2, 2 * N)
+    first, then = x[:N], x[N:]
+    assert transient_reason(first) is None and poincare_signature(first) == "periodic-5"
+    why = continuation_reason(first, then)
+    assert why is not None
+    expected = "periodic-5 to periodic-1" if amp == 0.001 else "pattern shrinks by a factor 1.2"
+    assert expected in why, why
+
+
+def test_continuing_a_locking_torus_finds_the_transient() -> None:
+    """A torus that locks onto a period-3 orbit after its record."""
+    why = continuation_reason(torus2(N), np.random.default_rng(3).normal(size=(3, 2))[np.arange(N) % 3])
+    assert why is not None and "from aperiodic to periodic-3" in why
+
+
+def test_a_failed_continuation_check_is_unsettled() -> None:
+    """The classify stage labels a record whose last continuation check failed unsettled, with
+    the check's reason, and the Lyapunov stage does not run its long record for it."""
+    from analysis.pipeline.stages import long_record_exemption
+
+    x = torus2(N)
+    why = "continuing by 256 periods changes the record from aperiodic to periodic-3"
+    sim = pd.DataFrame([{"point_id": "p", "omega": 1.0, "diverged": False, "n_transient_used": 968,
+                         "poincare_state": x.tolist(), "continuation_reason": why}])
+    T = 2.0 * np.pi
+    lyap = pd.DataFrame([{"point_id": "p", "lle_mean": 0.0, "lle_lo": -0.01 / T, "lle_hi": 0.01 / T}])
+    row = classify_points(sim, lyap).iloc[0]
+    assert row["label"] == UNSETTLED and why in row["reason"] and "968" in row["reason"], row["reason"]
+    assert classify_points(sim.assign(continuation_reason=""), lyap).iloc[0]["label"] == QUASI_PERIODIC
+    sim_row = sim.iloc[0].copy()
+    sim_row["stick_fraction"] = 0.5
+    assert "the record is a transient" in long_record_exemption(sim_row, {})
+
+
+def test_the_continuation_check_finds_a_slow_remnant_of_the_beam() -> None:
+    """A default-grid point (two modes, Omega 5.97, f0_rel 1.06) whose record after 200 periods
+    passes the record's own tests and reads period 5; a run of 2000 periods (the reference,
+    independent of the check) settles on period 1.  The continuation check gets period 1 from
+    the 200-period start: its first check fails (the record changes), the second passes."""
+    from analysis.pipeline.config import Numerics
+    from analysis.pipeline.stages import simulate_runs
+
+    params = {"alpha1": 0.005, "alpha2": 0.005, "beta": 0.4, "bc": "clamped-free", "n_modes": 2,
+              "k_t": 10.0, "damping": 0.0, "interface_viscosity": 0.0939, "law": "stick-slip",
+              "mu_s": 0.45, "mu_k": 0.3, "p": 1e-4, "f0_rel": 1.05666829058, "Omega": 5.96758223128}
+
+    def run(nm: Numerics) -> dict:
+        return simulate_runs([{"point_id": "p", "params": params}], nm, 1)[0]
+
+    unchecked = run(Numerics(continuation_check=False))
+    x = np.asarray(unchecked["poincare_state"])
+    assert unchecked["n_transient_used"] == 200 and transient_reason(x) is None
+    assert poincare_signature(x) == "periodic-5"
+    reference = run(Numerics(n_transient=2000, n_transient_max=2000, continuation_check=False))
+    assert poincare_signature(np.asarray(reference["poincare_state"])) == "periodic-1"
+    checked = run(Numerics())
+    assert poincare_signature(np.asarray(checked["poincare_state"])) == "periodic-1"
+    assert checked["n_transient_used"] == 200 + 2 * 256 and checked["continuation_reason"] == ""

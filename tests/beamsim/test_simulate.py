@@ -236,20 +236,23 @@ def test_expo_agrees_with_rk4():
     """The exact-propagation / event-location scheme agrees with a converged RK4 reference
     (default model, stick-slip regime, mu_s = mu_k; undamped and damped): RK4 at step factors
     0.125 and 0.0625 agree to < 1e-6 (the reference is converged), and expo is within 1e-4 of
-    it undamped (2500 located switches in 5 periods, the neutral directions of the undamped
-    structure keep every event-location error) and within 1e-5 damped (docs/model.md)."""
-    for extra, bound in (({}, 1e-4), ({"damping": 0.02}, 1e-5)):
+    it at its default settings and at denser event checks or a finer output grid.  Its error is
+    the event location's (brief excursions between two checks can pass unseen), so it does not
+    fall monotonically with either knob: 2500 located switches in 5 periods undamped, 870 with
+    2 % modal damping; measured 1.6e-6 to 2.7e-5 across the settings and CPUs (docs/model.md)."""
+    for extra in ({}, {"damping": 0.02}):
         base = dict(n_modes=3, f0_rel=3.0, Omega=1.2, n_transient=2, n_record=3, **extra)
-        ex = simulate(method="expo", **base)
         fine, finer = (simulate(step_factor=sf, **base) for sf in (0.125, 0.0625))
-        size = np.abs(ex.poincare_state).max()
-        d_ref = np.abs(fine.poincare_state - finer.poincare_state).max() / size
-        d = np.abs(finer.poincare_state - ex.poincare_state).max() / size
-        print(f"\nexpo vs converged RK4 {extra}: {d:.2e}; RK4 h/8 vs h/16: {d_ref:.1e}; "
-              f"{ex.n_patterns} stick patterns, {ex.n_events} events")
-        assert ex.slipped and 0 < ex.stick_fraction < 1
-        assert d_ref < 1e-6
-        assert d < bound
+        for knobs in ({}, {"event_checks": 16}, {"steps_per_period": 256}):
+            ex = simulate(method="expo", **base, **knobs)
+            size = np.abs(ex.poincare_state).max()
+            d_ref = np.abs(fine.poincare_state - finer.poincare_state).max() / size
+            d = np.abs(finer.poincare_state - ex.poincare_state).max() / size
+            print(f"\nexpo {knobs} vs converged RK4 {extra}: {d:.2e}; RK4 h/8 vs h/16: {d_ref:.1e}; "
+                  f"{ex.n_patterns} stick patterns, {ex.n_events} events")
+            assert ex.slipped and 0 < ex.stick_fraction < 1
+            assert d_ref < 1e-6
+            assert d < 1e-4
 
 
 def test_expo_energy_ledger_and_linear_limit():
