@@ -82,7 +82,7 @@ class Numerics:
     steps_per_period: int | None = None
     n_transient: int = 200
     n_record: int = 256
-    n_transient_max: int = 1200
+    n_transient_max: int = 2400
     continuation_check: bool = True
     chunk_size: int = 100
     lyapunov: LyapunovNumerics = field(default_factory=LyapunovNumerics)

@@ -29,9 +29,9 @@ TABLE_COLUMNS = (
 def assemble_regime_table(grid_points: Sequence[dict], simulated: pd.DataFrame, lyapunov: pd.DataFrame,
                           classified: pd.DataFrame) -> pd.DataFrame:
     """Stage 4: one row per grid point in grid order (first axis slowest), parameters first."""
-    by_id = (classified.set_index("point_id")
-             .join(lyapunov.set_index("point_id"), rsuffix="_lle")
-             .join(simulated.set_index("point_id"), rsuffix="_sim"))
+    by_id = (classified.merge(lyapunov, on="point_id", how="left", suffixes=("", "_lle"))
+             .merge(simulated, on="point_id", how="left", suffixes=("", "_sim"))
+             .set_index("point_id"))
     param_names = sorted({k for p in grid_points for k in p["params"]})
     rows = []
     for p in grid_points:
