@@ -46,9 +46,10 @@ def _one_line(res: subprocess.CompletedProcess, start: str) -> str:
     (False, "cannot run:", r"not writable \(Read-only file system\)"),
     # a table there to rewrite (a point added): Snakemake's own check of the outputs refuses first
     # (it names the first of the jobs to rerun it meets: a chunk job whose chunk gained the point,
-    # the table or one of its figures)
+    # the table, its convergence evidence -- the sample is drawn from the table -- or a figure)
     (True, "Write-protected output files",
-     r"for rule (simulate_chunk|lyapunov_chunk|classify_chunk|regime_table|regime_figures|portraits):"),
+     r"for rule (simulate_chunk|lyapunov_chunk|classify_chunk|regime_table|regime_figures|portraits"
+     r"|convergence_runs|convergence_table|convergence_figure):"),
 ])
 def test_read_only_results_stop_before_any_job_and_keep_what_is_there(tmp_path, populated, start, words):
     work = setup_workdir(tmp_path / "ro")
