@@ -320,7 +320,7 @@ def continuation_reason(record: ArrayLike, continued: ArrayLike, *, max_change: 
     the record, which the record's own trend tests cannot see (they compare parts of one record,
     and a remnant decaying by 20 % per record shows no significant trend inside it)."""
     a, b = poincare_signature(record), poincare_signature(continued)
-    n = np.asarray(continued).shape[0]
+    n = np.asarray(continued).shape[0] - 1  # periods run on (the samples include both ends)
     if a != b:
         return f"continuing by {n} periods changes the record from {a} to {b}"
     m = int(a.rsplit("-", 1)[1]) if a.startswith(PERIODIC) else 1
@@ -332,7 +332,8 @@ def continuation_reason(record: ArrayLike, continued: ArrayLike, *, max_change: 
             means = np.array([z[k::m].mean(axis=0) for k in range(m)])
             return float(np.max(np.ptp(means, axis=0) / s))
 
-        ratio = size(x) / max(size(y), 1e-300)
+        sx, sy = max(size(x), 1e-300), max(size(y), 1e-300)
+        ratio = sx / sy
         if abs(np.log(ratio)) > np.log1p(max_change):
             return (f"continuing by {n} periods, the period-{m} pattern "
                     f"{'shrinks' if ratio > 1 else 'grows'} by a factor {max(ratio, 1 / ratio):.3g}")

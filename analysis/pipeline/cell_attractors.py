@@ -322,7 +322,8 @@ def _cell_rows(cell: _Cell, labels: Mapping[str, pd.Series], axes: Sequence[str]
                 "attractor": None, "starts": [names[k] for k in left], "label": verdict, "period": None,
                 "label_text": verdict, "lle_T": np.nan, "lle_lo_T": np.nan, "lle_hi_T": np.nan,
                 "reason": ("integration diverged" if verdict == DIVERGED
-                           else "record still a transient at the adaptive transient's cap"),
+                           else "record still a transient at the adaptive transient's cap (its own tests "
+                                 "or the continuation check)"),
                 "run_id": ids[left[0]], "poincare_w_tip": None})
     regimes = {r["label_text"] for r in rows if r["attractor"] is not None and r["label"] in VERDICTS}
     for r in rows:

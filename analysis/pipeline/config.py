@@ -69,11 +69,14 @@ class Numerics:
         ``n_transient`` periods and a new record, the old record joining the transient, while
         the transient stays within ``n_transient_max`` periods.
     continuation_check : a record that passes the transient tests is continued once by
-        ``n_record`` periods from its end state; when the two records'
-        :func:`analysis.regimes.poincare_signature` differ (period ``m`` or aperiodic), the
-        later record becomes the record and is checked in turn, while the record starts within
-        ``n_transient_max`` periods; a point whose last check failed is ``unsettled``
-        (:func:`analysis.regimes.continuation_reason`).
+        ``n_record`` periods from its end state and the later record is kept; when the two
+        records differ (:func:`analysis.regimes.continuation_reason`: another
+        :func:`~analysis.regimes.poincare_signature`, period ``m`` or aperiodic, or a period-``m``
+        pattern whose size changes by over 5 %), the later record is checked in turn while it
+        starts within ``n_transient_max`` periods (so a record can start up to ``n_record``
+        periods after the cap, and a check runs even when ``n_transient_max == n_transient``);
+        a point whose last check failed is ``unsettled``; a check run that diverges makes the
+        point ``diverged``.
     chunk_size : grid points per job (not part of a point's id).
     """
 

@@ -25,8 +25,10 @@ The estimate is a cost model, ``seconds = c * periods / Omega``, per stage and p
   per cell times the mean simulate estimate of the grid's points, plus the Lyapunov stage for the
   expected share :data:`NEW_ATTRACTOR_SHARE` of the starts that end on an attractor of their own.
 
-The two shares are measured on the default grid (docs/pipeline.md: 26 % of the points ran a
-long record, 29 % were continued, 3.5 % twice); other grids differ.
+The two shares are measured on the default grid (docs/pipeline.md, results version 6: 26 % of
+the points ran a long record, 29 % were continued, 3.5 % twice; version 8: about 32 % continued,
+and about 8 % failed a continuation check and ran one more record, which the estimate leaves
+out); other grids differ.
 
 The coefficients ``c`` (seconds per forcing period at ``Omega = 1``, one thread, after
 compilation) are measured, not typed: ``benchmarks/cost_model.py --write`` runs the stages on a

@@ -99,8 +99,10 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int) -> list[dict]:
 
     Continuation check (``nm.continuation_check``): a record that passes those tests and starts
     within ``n_transient_max`` periods is continued by ``n_record`` periods (no transient); the
-    continued record is kept, and when its :func:`analysis.regimes.poincare_signature` differs
-    from the first one's (:func:`analysis.regimes.continuation_reason`), it is tested in turn.
+    continued record is kept, and when it differs from the first one
+    (:func:`analysis.regimes.continuation_reason`: another Poincare signature or period-m
+    pattern size), it is tested in turn; a record kept after a further adaptive transient is
+    checked again; a check run that diverges is kept (the point is ``diverged``).
     ``continuation_reason`` of the record is the last failed check's reason (``""`` when the
     last check passed or none ran): :func:`unsettled_reason` reads it.  A point's continuation
     depends on its own records only (same result in any batch)."""
@@ -142,8 +144,8 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int) -> list[dict]:
                     why = (continuation_reason(results[i].poincare_state, r.poincare_state)
                            if np.all(np.isfinite(r.poincare_state)) and not r.diverged else None)
                     why_continued[i], checked[i] = why or "", why is None
-                else:
-                    why_continued[i] = ""  # a new record after a transient: not checked yet
+                else:  # a new record after a transient: not checked yet
+                    why_continued[i], checked[i] = "", not nm.continuation_check
                 used[i] += nm.n_record + n_tr
                 t_start[i] = t0
                 results[i] = r

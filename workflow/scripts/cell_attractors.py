@@ -15,7 +15,7 @@ from analysis.pipeline.stages import register_cached_modes
 logging.basicConfig(stream=sys.stderr, level=logging.INFO, format="%(asctime)s %(message)s")
 register_cached_modes(snakemake.input.modes)
 simulated = pd.concat([pd.read_parquet(f, columns=["point_id", "poincare_state", "poincare_tip",
-                                                   "final_state", "diverged"])
+                                                   "final_state", "diverged", "continuation_reason"])
                        for f in snakemake.input.simulate], ignore_index=True)
 attractors = cell_attractors(pd.read_parquet(snakemake.input.table), simulated, snakemake.params.numerics,
                              MultistabilitySettings.from_dict(snakemake.params.settings),
