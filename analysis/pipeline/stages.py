@@ -118,6 +118,7 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int) -> list[dict]:
     first_slip = [(r.slipped, r.t_first_slip) for r in results]
     checked = [not nm.continuation_check] * len(points)  # the record passed a continuation check
     why_continued = [""] * len(points)
+    done = [False] * len(points)  # next_run said None: the point's record is final
 
     def next_run(i: int) -> str | None:
         """``"transient"``, ``"check"`` or ``None`` (the point is done)."""
@@ -130,7 +131,18 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int) -> list[dict]:
             return "transient" if fits else None
         return None if checked[i] or used[i] > nm.n_transient_max else "check"
 
-    while todo := [(i, kind) for i in range(len(points)) if (kind := next_run(i)) is not None]:
+    def pending() -> list[tuple[int, str]]:
+        """The points that run again and how; a point found done stays done (its record is
+        not touched again, so its transient tests are not repeated)."""
+        out = []
+        for i in range(len(points)):
+            kind = None if done[i] else next_run(i)
+            done[i] = kind is None
+            if kind is not None:
+                out.append((i, kind))
+        return out
+
+    while todo := pending():
         for kind, n_tr in (("transient", nm.n_transient), ("check", 0)):
             idx = [i for i, k in todo if k == kind]
             if not idx:
