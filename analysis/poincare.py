@@ -29,7 +29,6 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.cluster.hierarchy import fcluster, linkage
-from scipy.signal import get_window
 from scipy.spatial.distance import pdist
 
 __all__ = [
@@ -494,6 +493,10 @@ def spectral_lines(
     of the power changes ``H`` by ``~ eps log(L/eps)`` (``~3e-7`` for noise of
     1e-4 of the signal amplitude).
     """
+    # imported here, not at the top: scipy.signal is slow to import, and every Snakemake job
+    # imports this module (through the label names the Snakefile's plan uses)
+    from scipy.signal import get_window
+
     x = np.asarray(phi, dtype=np.float64).ravel()
     n = x.size
     lengths = []

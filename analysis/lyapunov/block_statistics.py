@@ -36,7 +36,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 
 __all__ = ["BlockPlan", "LLEStatistics", "POSITIVE", "NON_POSITIVE", "UNDETERMINED", "DIVERGED",
            "block_statistics", "decide"]
@@ -177,6 +176,8 @@ def block_statistics(log_err: np.ndarray, period: float, *, block: int = 25, bur
     blocks = np.diff(ends) / (block * period)
     mean = float(blocks.mean())
     se = float(blocks.std(ddof=1) / math.sqrt(n_blocks))
+    from scipy import stats  # not at the top: slow to import, and the Snakefile's plan imports this
+
     half = float(stats.t.ppf(0.5 + confidence / 2.0, n_blocks - 1)) * se
     lo, hi = mean - half, mean + half
     return LLEStatistics(mean, se, lo, hi, blocks, n_blocks * block, block, burn_in, confidence,

@@ -8,20 +8,10 @@ import pandas as pd
 
 from analysis.figures import paper as fig
 from analysis.paper.measure import drawn
+from analysis.paper.runs import FIGURES
 from analysis.pipeline.stages import poincare_array
 
 __all__ = ["FIGURES", "draw_item"]
-
-#: figure files of each item, under results/paper/<item>/
-FIGURES = {
-    "modes": ("characteristic_function.png", "mode_shapes.png"),
-    "fig8": ("tip_histories.png",),
-    "fig9": ("law_pairs.png",),
-    "fig10": ("load_sweeps.png", "frequency_sweeps.png", "poincare_transient.png"),
-    "fig11": ("layer_phase_planes.png",),
-    "fig12": ("friction_law.png",),
-    "fig13": ("law_pairs.png",),
-}
 
 
 def _label(r: pd.Series) -> str:

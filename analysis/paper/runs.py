@@ -25,7 +25,7 @@ import pandas as pd
 
 from analysis.pipeline.grid import axis_values
 
-__all__ = ["PaperRun", "ITEMS", "RUN_ITEMS", "NEEDS_CHAOS_RATIO", "PAPER_LAW", "item_runs",
+__all__ = ["PaperRun", "ITEMS", "FIGURES", "RUN_ITEMS", "NEEDS_CHAOS_RATIO", "PAPER_LAW", "item_runs",
            "smallest_chaotic_ratio",
            "model_defaults", "f0_rel_of", "paper_modes", "stribeck_constants", "TABLE1_GEOMETRY"]
 
@@ -34,6 +34,17 @@ TABLE1_GEOMETRY = {"alpha": 0.01, "beta": 0.4, "bc": "clamped-free"}
 
 #: every item of the paper target, in the paper's order (``modes``: Table 1 and figs 4-5)
 ITEMS = ("modes", "fig8", "fig9", "fig10", "fig11", "fig12", "fig13")
+#: figure files of each item, under results/paper/<item>/ (drawn by
+#: :func:`analysis.paper.drawing.draw_item`)
+FIGURES = {
+    "modes": ("characteristic_function.png", "mode_shapes.png"),
+    "fig8": ("tip_histories.png",),
+    "fig9": ("law_pairs.png",),
+    "fig10": ("load_sweeps.png", "frequency_sweeps.png", "poincare_transient.png"),
+    "fig11": ("layer_phase_planes.png",),
+    "fig12": ("friction_law.png",),
+    "fig13": ("law_pairs.png",),
+}
 #: items that need simulations, in the order they run (fig9-11 use chaos_ratio's result)
 RUN_ITEMS = ("chaos_ratio", "fig8", "fig9", "fig10", "fig11", "fig13")
 #: items whose runs use the smallest chaotic mu_s / mu_k of item chaos_ratio

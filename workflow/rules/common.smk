@@ -4,7 +4,7 @@ from pathlib import Path
 from snakemake.logging import logger
 
 from analysis.paper.config import build_paper_plan, paper_file
-from analysis.paper.drawing import FIGURES as PAPER_FIGURES
+from analysis.paper.runs import FIGURES as PAPER_FIGURES
 from analysis.paper.runs import NEEDS_CHAOS_RATIO as PAPER_NEEDS_CHAOS_RATIO
 from analysis.paper.runs import RUN_ITEMS as PAPER_RUN_ITEMS
 from analysis.paper.runs import stribeck_constants
