@@ -166,17 +166,32 @@ def _chaos_verdict(paper: pd.DataFrame, resolution: float) -> tuple[str, str]:
     or more -> reproduced; no run with a value -> data missing; ``lambda_1 T`` above the
     resolution without the chaotic label -> reproduced qualitatively (a positive exponent the
     other indicators do not confirm); every ``lambda_1 T`` (unsettled runs included) at most the
-    resolution -> impossible in a consistent model (the proof of docs/lyapunov.md section 8)."""
+    resolution -> impossible in a consistent model (the proof of docs/lyapunov.md section 8).
+
+    A periodic run without a confidence interval (``lle_lo_T`` missing: the pipeline did not
+    measure the long record, because the period test over the whole record excludes chaos;
+    :func:`analysis.pipeline.stages.long_record_exemption`) carries only the short window's
+    reading, whose own resolution is far coarser than the margin; it counts as ``lambda_1 T <=
+    0`` (an attracting periodic orbit), and a positive window reading is named in the text."""
     lle = paper["lle_T"].to_numpy(dtype=float) if len(paper) else np.array([])
     if (paper["label"] == "chaotic").any():
         return REPRODUCED, ""
     if lle.size == 0 or not np.isfinite(lle).any():
         return DATA_MISSING, ". No paper-law run with a Lyapunov exponent"
+    note = ""
+    if "lle_lo_T" in paper:
+        window_only = ((paper["label"] == "periodic").to_numpy()
+                       & ~np.isfinite(paper["lle_lo_T"].to_numpy(dtype=float)) & np.isfinite(lle))
+        if np.any(window_only & (lle > 0.0)):
+            note = (f" (window readings of periodic runs, up to {np.max(lle[window_only]):+.3f}, count as"
+                    " <= 0: the period test labels those runs, the long record was not run)")
+        lle = np.where(window_only, np.minimum(lle, 0.0), lle)
     top = float(np.nanmax(lle))
     if top <= resolution:
         return IMPOSSIBLE, (f". Largest lambda_1 T with the paper's law {top:+.3f} <= resolution "
-                            f"{resolution:g}, as docs/lyapunov.md section 8 proves")
-    return QUALITATIVE, f". Largest lambda_1 T {top:+.3f} > resolution {resolution:g}, not labelled chaotic"
+                            f"{resolution:g}{note}, as docs/lyapunov.md section 8 proves")
+    return QUALITATIVE, (f". Largest lambda_1 T {top:+.3f} > resolution {resolution:g}{note}, "
+                         "not labelled chaotic")
 
 
 def _chaos_row(item: str, claim: str, df: pd.DataFrame, resolution: float) -> dict:

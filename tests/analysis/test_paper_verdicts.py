@@ -68,6 +68,18 @@ def test_chaos_claim_verdicts():
     assert nothing["verdict"] == V.DATA_MISSING
 
 
+def test_a_window_reading_of_a_periodic_run_is_not_a_measured_exponent():
+    """A periodic run has no long record (the period test excludes chaos), only the short
+    window's reading: a positive reading there (results version 8: +0.058 at a period-1 run of
+    the paper's law) does not make the chaos claim "qualitatively" reproduced; the same value
+    measured with an interval at a run the other indicators call quasi-periodic does."""
+    rows = _chaos_rows(["periodic", "periodic"], [0.058, -0.19]).assign(lle_lo_T=np.nan)
+    row = V.fig11_verdicts(rows, resolution=0.05)[0]
+    assert row["verdict"] == V.IMPOSSIBLE and "+0.058" in row["measured"], row["measured"]
+    measured = _chaos_rows(["quasi-periodic", "periodic"], [0.058, -0.19]).assign(lle_lo_T=[0.01, np.nan])
+    assert V.fig11_verdicts(measured, resolution=0.05)[0]["verdict"] == V.QUALITATIVE
+
+
 def test_settling_and_history_difference():
     k = np.arange(200)
     fast = 1.0 + np.exp(-k / 5.0)

@@ -55,8 +55,8 @@ def test_read_only_results_stop_before_any_job_and_keep_what_is_there(tmp_path, 
     work = setup_workdir(tmp_path / "ro")
     results = work / "results"
     results.mkdir()
-    if populated:
-        assert snakemake(work, "regimes").returncode == 0
+    if populated:  # the table's chain only: the figure and evidence rules add time, not cases
+        assert snakemake(work, "results/regimes/tiny.parquet").returncode == 0
         grid = yaml.safe_load(yaml.safe_dump(GRID))
         grid["grids"]["tiny"]["axes"]["f0_rel"] = [0.5, 1.5, 3.0]
         (work / "grid.yaml").write_text(yaml.safe_dump(grid))
