@@ -20,9 +20,10 @@ $(STAMP): pyproject.toml
 run: $(STAMP)
 	$(BIN)/snakemake -c2 regimes
 
-# Whole test suite.
+# Whole test suite.  Whole files go to a worker (module fixtures are built once); the order of
+# the files is tests/conftest.py's, not xdist's (--no-loadscope-reorder).
 test: $(STAMP)
-	$(BIN)/python -m pytest -n 2 --dist loadfile --durations=15
+	$(BIN)/python -m pytest -n 2 --dist loadfile --no-loadscope-reorder --durations=15
 
 # Simulator benchmark against its strongest peers (docs/performance.md, <= 5 minutes).  The
 # compiled peer numbalsoda builds from source with a Fortran compiler (Debian: gfortran).

@@ -29,8 +29,9 @@ ROOT = Path(__file__).resolve().parents[2]
 VENV_BIN = str(Path(sys.executable).parent)
 RUN_TIMEOUT = 300  # seconds for one snakemake run (the SLURM one takes ~30 s here)
 
-# slow; one local cluster for the module (make test hands whole files to a worker: --dist loadfile)
-pytestmark = pytest.mark.slow
+# slow, and mostly waiting on status polls (run first: tests/conftest.py); one local cluster for
+# the module (make test hands whole files to a worker: --dist loadfile)
+pytestmark = [pytest.mark.slow, pytest.mark.waits]
 
 
 @dataclass(frozen=True)
