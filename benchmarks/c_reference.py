@@ -34,7 +34,6 @@ import math
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
@@ -47,7 +46,8 @@ from beamsim.point import period_steps, stack_points
 from beamsim.simulate import prepare_point
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from simulate import CASES  # noqa: E402  (the benchmark cases of benchmarks/simulate.py)
+# benchmarks/simulate.py: its cases, its relative error and its best-of timing
+from simulate import CASES, err_vs, timed  # noqa: E402
 
 #: RK4 step factor of the Lyapunov runs (config/config.yaml numerics.lyapunov.step_factor)
 STEP_FACTOR = 0.5
@@ -176,15 +176,6 @@ def start_state(pp, stk):
     return q, v, z, mode
 
 
-def best_of(fn, repeat):
-    best = math.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
-
-
 def case_row(name, spec, n_steps, repeat, workdir):
     pp = prepare_point(**spec["point"])
     stk = stack_points([pp])
@@ -202,8 +193,7 @@ def case_row(name, spec, n_steps, repeat, workdir):
         return np.concatenate([q, v, z])
 
     numba_call(10)  # compile
-    t_numba = best_of(lambda: numba_call(n_steps), repeat)
-    x_numba = numba_call(n_steps)
+    x_numba, t_numba = timed(lambda: numba_call(n_steps), repeat)
 
     dbl = ctypes.POINTER(ctypes.c_double)
     lng = ctypes.POINTER(ctypes.c_long)
@@ -224,9 +214,8 @@ def case_row(name, spec, n_steps, repeat, workdir):
             lib.run(*args)
             return np.concatenate([q, v, z])
 
-        t_c = best_of(lambda: c_call(n_steps), repeat)
-        diff = float(np.max(np.abs(c_call(n_steps) - x_numba)) / np.max(np.abs(x_numba)))
-        rows.append((label, t_c, diff))
+        x_c, t_c = timed(lambda: c_call(n_steps), repeat)
+        rows.append((label, t_c, err_vs(x_numba, x_c)))
     print(f"\n{name}: n = {n}, nq = {nq}, {n_steps} steps at step factor {STEP_FACTOR} "
           f"(h omega_max = {STEP_FACTOR}), {flops} flops per step")
     print(f"{'build':<24} {'ns/step':>9} {'numba / it':>11} {'GFLOP/s':>8} {'end-state diff':>15}")
