@@ -11,6 +11,13 @@ point ``j`` resists the slip ``s_j`` (it enters the equations as ``- S^T diag(wq
     follows ``s_j``; it sticks again when the slip velocity reverses.  ``mu_s >= mu_k``.
     Stick and slip are local (partial slip).  As ``k_t -> inf`` this is the rigid-stick
     Coulomb law of eq 33.
+``rigid-stick`` (that limit, eq 33 itself)
+    A stuck point does not slip at all (``s_j' = 0``; the traction is the constraint force,
+    whatever it takes up to ``mu_s p_j``), a sliding one carries ``mu_k p_j sgn(slip
+    velocity)``; no ``k_t``, no stuck-interface modes.  Tractions that the interface carries
+    without a generalised force (the Galerkin basis has fewer slip shapes than interface
+    points) are locked in while a pattern sticks, as in the penalty model
+    (:mod:`beamsim.kernels.rigid_stick`).  Integrated by ``rk4`` only.
 ``full-slip`` (the simplified model of the paper's fig 9)
     ``tau_j = mu_k p_j tanh(v_j / eps_v)``: always sliding, the sign function regularised over
     the velocity band ``eps_v``.
@@ -29,13 +36,17 @@ from numba import njit
 
 from beamsim.two_layer import check_nonnegative, check_positive, set_fields
 
-__all__ = ["LAWS", "STICK_SLIP", "FULL_SLIP", "STRIBECK", "Friction", "smooth_traction",
+__all__ = ["LAWS", "STICK_SLIP", "FULL_SLIP", "STRIBECK", "RIGID_STICK", "Friction", "smooth_traction",
            "law_code"]
 
 STICK_SLIP = 0
 FULL_SLIP = 1
 STRIBECK = 2
-LAWS = {"stick-slip": STICK_SLIP, "full-slip": FULL_SLIP, "stribeck": STRIBECK}
+RIGID_STICK = 3
+LAWS = {"stick-slip": STICK_SLIP, "full-slip": FULL_SLIP, "stribeck": STRIBECK,
+        "rigid-stick": RIGID_STICK}
+#: the laws with a stick phase (static and kinetic coefficients, located switches)
+STICKING_LAWS = ("stick-slip", "rigid-stick")
 
 
 def law_code(law: str) -> int:
@@ -55,7 +66,7 @@ def smooth_traction(v, fc, fs, vs, kv, eps):
 class Friction:
     """Friction law and its constants for one run.
 
-    law : "stick-slip" | "full-slip" | "stribeck".
+    law : "stick-slip" | "rigid-stick" | "full-slip" | "stribeck".
     mu_s, mu_k : static and kinetic coefficients (``mu_k=None`` -> ``mu_s``); ``mu_s >= mu_k``.
         full-slip uses ``mu_k``.
     p : mean interlayer pressure p* = p / E (>= 0);  ``p_profile`` optional shape (see

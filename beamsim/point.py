@@ -53,11 +53,31 @@ class PreparedPoint:
 
     @property
     def Omega(self) -> float:
-        return self.omega / self.model.omega1_stuck
+        return self.omega / omega1_stuck(self.model, self.friction.law)
 
     @property
     def lam_f(self) -> float:
         return self.omega**2
+
+
+#: integrators that support only some friction laws (the others, e.g. ``rk4``, support all)
+METHOD_LAWS = {"expo": ("stick-slip",), "newmark": ("stick-slip",)}
+
+
+def check_method_law(method: str, law: str) -> None:
+    """Raise ValueError if the integrator ``method`` does not support the friction ``law``."""
+    laws = METHOD_LAWS.get(method)
+    if laws is not None and law not in laws:
+        raise ValueError(f"method={method!r} supports law={' or '.join(map(repr, laws))} only, "
+                         f"got law={law!r}")
+
+
+def omega1_stuck(model: TwoLayerModel, law: str) -> float:
+    """First natural angular frequency of the stuck beam, the unit of ``Omega``: bonded by the
+    penalty springs (every law but one) or rigidly (``rigid-stick``)."""
+    if law == "rigid-stick":
+        return model.omega1_bonded_rigid
+    return model.omega1_stuck
 
 
 def _split(point: dict):
@@ -99,13 +119,14 @@ def prepare_point(**point) -> PreparedPoint:
     (= omega^2, the paper's lambda) and ``Omega`` (= omega / omega_1 of the stuck beam,
     default 1).  Initial state ``q0``, ``v0`` (generalised coordinates, default 0), ``z0``
     (Jenkins internal slips, default 0), ``mode0`` (stick/slip state of each Jenkins element:
-    0 stuck, +-1 slipping in that direction; default 0; stick-slip law only).  A point can be
+    0 stuck, +-1 slipping in that direction; default 0; stick-slip and rigid-stick laws only;
+    for rigid-stick ``z0`` is a stuck element's locked-in traction).  A point can be
     restarted from ``SimResult.final_state`` with :func:`restart_params`.
     """
     geom, fric = check_point(point)
     model = build_model(geom)
     pj = pressure_at(model.theta_q, fric.p, fric.p_profile)
-    f_cr = model.f_cr(fric.mu_s, fric.p, fric.p_profile)
+    f_cr = model.f_cr(fric.mu_s, fric.p, fric.p_profile, rigid=fric.law == "rigid-stick")
     # load amplitude
     if point.get("f0") is not None:
         f0 = check_nonnegative("f0", point["f0"])
@@ -126,7 +147,7 @@ def prepare_point(**point) -> PreparedPoint:
     elif key == "lam_f":
         omega = math.sqrt(check_positive("lam_f", point["lam_f"]))
     else:
-        omega = check_positive("Omega", point.get("Omega", 1.0)) * model.omega1_stuck
+        omega = check_positive("Omega", point.get("Omega", 1.0)) * omega1_stuck(model, fric.law)
     # initial state
     n, nq = model.n, model.n_quad
     x0 = np.zeros(2 * n + 2 * nq)
@@ -149,6 +170,11 @@ def prepare_point(**point) -> PreparedPoint:
         eps_v = 1.0
         has_stick = bool(np.any(tau_s > 0))
         omega_max = model.omega_max_stuck if has_stick else model.omega_max_frictionless
+    elif fric.law == "rigid-stick":
+        # a constraint can only lower the largest natural frequency (Rayleigh quotient over a
+        # subspace): the free (frictionless) beam bounds every stick pattern
+        eps_v = 1.0
+        omega_max = model.omega_max_frictionless
     else:
         if fric.eps_v is not None:
             eps_v = float(fric.eps_v)

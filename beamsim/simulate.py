@@ -36,7 +36,14 @@ import numpy as np
 
 from beamsim.kernels import expo, newmark, rk4
 from beamsim.kernels.bundles import Outputs, Schedule
-from beamsim.point import PreparedPoint, period_steps, prepare_point, stack_points
+from beamsim.point import (
+    METHOD_LAWS,
+    PreparedPoint,
+    check_method_law,
+    period_steps,
+    prepare_point,
+    stack_points,
+)
 from beamsim.results import ENERGY_COLUMNS, N_FLAGS, TIP_COLUMNS, BatchResult, SimResult, flag_fields
 from beamsim.two_layer import check_int, check_positive
 
@@ -68,8 +75,8 @@ def _run_newmark(stk, sched, opts, out):
 #: the method table: name -> :class:`Method`
 METHODS = {
     "rk4": Method(_run_rk4),
-    "expo": Method(_run_expo, laws=("stick-slip",)),
-    "newmark": Method(_run_newmark, laws=("stick-slip",)),
+    "expo": Method(_run_expo, laws=METHOD_LAWS["expo"]),
+    "newmark": Method(_run_newmark, laws=METHOD_LAWS["newmark"]),
 }
 
 #: expo's bit keys of stick patterns hold at most this many Jenkins elements
@@ -79,10 +86,8 @@ EXPO_MAX_QUAD = 62
 def _check_method(method: str, prepared: list) -> None:
     if method not in METHODS:
         raise ValueError(f"method must be one of {tuple(METHODS)}, got {method!r}")
-    laws = METHODS[method].laws
     for pp in prepared:
-        if laws is not None and pp.friction.law not in laws:
-            raise ValueError(f"method={method!r} supports law='stick-slip' only")
+        check_method_law(method, pp.friction.law)
         if method == "expo" and pp.model.n_quad > EXPO_MAX_QUAD:
             raise ValueError(f"method='expo' supports n_quad <= {EXPO_MAX_QUAD}")
     n, nq = prepared[0].model.n, prepared[0].model.n_quad

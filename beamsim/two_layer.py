@@ -317,6 +317,11 @@ class TwoLayerModel:
         """First natural angular frequency of the stuck (bonded, penalty) beam."""
         return float(math.sqrt(self.eig_stuck[0][0]))
 
+    @functools.cached_property
+    def omega1_bonded_rigid(self) -> float:
+        """First natural angular frequency with the slip constrained to zero everywhere."""
+        return float(math.sqrt(self.eig_bonded_rigid()[0]))
+
     @property
     def omega_max_stuck(self) -> float:
         """Largest natural angular frequency of the stuck system (sets the explicit RK4 step)."""
@@ -336,14 +341,26 @@ class TwoLayerModel:
     def static_unit_frictionless(self) -> np.ndarray:
         return np.linalg.solve(self.K, self.g)
 
-    def f_cr(self, mu_s: float, p: float, p_profile=None) -> float:
+    @functools.cached_property
+    def static_unit_rigid(self) -> tuple[np.ndarray, np.ndarray]:
+        """Static response to a unit tip force with the interface rigidly stuck (``S q = 0``)
+        from an unloaded interface: (q, tractions tau_j).  The tractions lie in
+        ``range(S)`` (no locked-in part: the limit ``k_t -> inf`` of :attr:`static_unit`)."""
+        Z = sla.null_space(self.S)
+        q = Z @ np.linalg.solve(Z.T @ self.K @ Z, Z.T @ self.g)
+        # S^T W tau = g - K q with tau = S xi
+        xi = np.linalg.lstsq((self.S.T * self.wq) @ self.S, self.g - self.K @ q, rcond=None)[0]
+        return q, self.S @ xi
+
+    def f_cr(self, mu_s: float, p: float, p_profile=None, rigid: bool = False) -> float:
         """Static initial-slip amplitude: the smallest ``f0`` for which the peak load ``2 f0`` of
         ``F = f0 (cos tau - 1)`` makes the bonded (stuck) interface traction reach
-        ``mu_s p(theta)`` somewhere.  Linear in ``mu_s p``.
+        ``mu_s p(theta)`` somewhere.  Linear in ``mu_s p``.  ``rigid``: the rigid stick's
+        tractions (:attr:`static_unit_rigid`) instead of the penalty's.
         """
         mu_s = check_nonnegative("mu_s", mu_s)
         pj = pressure_at(self.theta_q, p, p_profile)
-        tau = np.abs(self.static_unit[1])
+        tau = np.abs((self.static_unit_rigid if rigid else self.static_unit)[1])
         with np.errstate(divide="ignore"):
             ratio = np.where(tau > 0, mu_s * pj / np.where(tau > 0, tau, 1.0), np.inf)
         return float(0.5 * ratio.min())

@@ -13,7 +13,8 @@ run share everything else) and sends the refined points through the pipeline's o
   switch checks) and the Lyapunov runs' RK4 step;
 * ``windows``: transient (and its cap), record, Stefanski window, Lyapunov burn-in and blocks
   all twice as long (the same number of blocks, each twice as long);
-* ``k_t``: the Jenkins (stick) stiffness of the interface three times larger;
+* ``k_t``: the Jenkins (stick) stiffness of the interface three times larger (law
+  ``stick-slip`` only: the rigid stick has none);
 * ``modes``: one more arch mode in the Galerkin basis.
 
 The sample (:func:`sample_points`) is stratified by the map's labels: every label present is
@@ -121,6 +122,10 @@ def refine(refinement: str, params: dict, numerics: Numerics | dict) -> tuple[di
                      lyapunov=replace(ly, n_periods=2 * ly.n_periods, burn_in=2 * ly.burn_in,
                                       block_periods=2 * ly.block_periods))
     elif refinement == "k_t":
+        if p.get("law") == "rigid-stick":
+            raise ValueError("convergence.refinements: 'k_t' stiffens the elastic stick of law "
+                             "stick-slip; a point has law rigid-stick, which has no stick "
+                             "stiffness: drop 'k_t' from convergence.refinements")
         p["k_t"] = 3.0 * float(p.get("k_t", Geometry.k_t))
     elif refinement == "modes":
         n = int(p.get("n_modes", Geometry.n_modes))

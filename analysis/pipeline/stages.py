@@ -79,7 +79,8 @@ def integrator(method: str, params: dict) -> str:
     """Integrator of a point's reference run.  ``auto``: ``expo`` for the stick-slip law (exact
     between located switches, so the stiff stuck interface costs no steps; its distance to the
     RK4 reference and its labels and cost on the default grid: docs/model.md, docs/pipeline.md),
-    the RK4 reference for the regularised laws (which ``expo`` does not support).  The Lyapunov
+    the RK4 reference for the rigid stick and the regularised laws (which ``expo`` does not
+    support).  The Lyapunov
     stage always integrates with RK4 (:mod:`beamsim.coupled_copies`): ``expo``'s event-location
     error would be measured by copies 1e-6 apart."""
     if method != "auto":
@@ -289,19 +290,22 @@ def long_record_exemption(sim_row: pd.Series, params: dict) -> str | None:
     * the record is periodic (:func:`analysis.regimes.classify` without an exponent finds a
       period): the period test over the whole record excludes chaos, and the classifier's
       rule 1 labels it periodic whatever the exponent;
-    * the stick-slip law and every Jenkins element stuck over the record (``stick_fraction``
-      1): the dynamics there are linear with constant coefficients and a non-negative damping,
-      so ``lambda_1 <= 0`` exactly (:data:`LINEAR_VERDICT`).  Not for the regularised laws,
-      whose "stuck" (``|v| < eps_v``) is still the nonlinear traction law.
+    * the stick-slip or rigid-stick law and every interface point stuck over the record
+      (``stick_fraction`` 1): the dynamics there are linear with constant coefficients and a
+      non-negative damping, so ``lambda_1 <= 0`` exactly (:data:`LINEAR_VERDICT`).  Not for
+      the regularised laws, whose "stuck" (``|v| < eps_v``) is still the nonlinear traction
+      law.
     """
     from analysis.regimes import PERIODIC, classify
+    from beamsim.friction import STICKING_LAWS
 
     x = poincare_array(sim_row["poincare_state"])
     if unsettled_reason(sim_row) is not None:
         return "not measured: the record is a transient (unsettled)"
     if classify(x).label == PERIODIC:
         return "not measured: periodic record (the period test excludes chaos)"
-    if params.get("law", "stick-slip") == "stick-slip" and float(sim_row["stick_fraction"]) >= 1.0:
+    if (params.get("law", "stick-slip") in STICKING_LAWS
+            and float(sim_row["stick_fraction"]) >= 1.0):
         return LINEAR_VERDICT
     return None
 

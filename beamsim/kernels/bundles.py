@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections import namedtuple
 
+import numpy as np
 from numba import njit
 
 #: njit options of a hot kernel that allocates nothing (no array is created or returned):
@@ -33,13 +34,27 @@ LEAF = dict(cache=True, _nrt=False, fastmath={"reassoc", "contract", "nsz", "arc
 #: ``g`` load vector, ``tip`` tip-response rows; load ``F(t) = f0 (cos(om t) - 1)``; friction
 #: limits ``tau_s, tau_k`` (stick-slip) and ``fc, fs, vs, kv, eps`` (regularised laws); ``Minv``
 #: and ``Linv`` = ``M^-1`` and the inverse Cholesky factor of ``M`` (expo).
-Point = namedtuple("Point", ("law", "Aq", "Av", "Bt", "gv", "S", "wq", "kt", "ct", "Mm", "Km",
-                             "Cm", "damp", "g", "tip", "f0", "om", "tau_s", "tau_k", "fc", "fs",
-                             "vs", "kv", "eps", "Minv", "Linv"))
+_POINT_INPUTS = ("law", "Aq", "Av", "Bt", "gv", "S", "wq", "kt", "ct", "Mm", "Km", "Cm", "damp",
+                 "g", "tip", "f0", "om", "tau_s", "tau_k", "fc", "fs", "vs", "kv", "eps", "Minv",
+                 "Linv")
+
+#: the rigid stick's per-pattern matrices (:mod:`beamsim.kernels.rigid_stick`): ``keys`` (-1:
+#: empty slot), ``F`` ``(C, nq, nq)``, ``E`` ``(C, nq, n)`` (rows and columns of the stuck
+#: elements; zero elsewhere), ``red`` ``(C, nq)`` (1: a sliding element whose slip the stuck
+#: ones fix) and ``R`` ``(C, nq, n)`` its elastic slip-rate row, ``Pv`` ``(C, n, nq)`` the
+#: velocity projection onto the stuck constraints; ``MS = M^-1 S^T``, ``G = S M^-1 S^T``;
+#: scratch of a fill (``sa, sv, su, sw`` square ``nq``, ``sl`` eigenvalues, ``si`` stuck
+#: element indices); ``count`` filled slots
+RigidCache = namedtuple("RigidCache", ("keys", "F", "E", "R", "Pv", "red", "MS", "G", "sa", "sv",
+                                       "su", "sw", "sl", "si", "count"))
+
+#: constant inputs of one point (above) and the rigid stick's pattern cache ``rc`` (an empty
+#: one unless the kernel of a ``rigid-stick`` point installs a real one)
+Point = namedtuple("Point", _POINT_INPUTS + ("rc",))
 
 #: every point's inputs stacked (``Cm, damp``: full damping; ``Cs, damp_s``: structural part;
 #: ``x0``: initial states; ``divl``: divergence limits)
-PointStack = namedtuple("PointStack", Point._fields + ("Cs", "damp_s", "x0", "divl"))
+PointStack = namedtuple("PointStack", _POINT_INPUTS + ("Cs", "damp_s", "x0", "divl"))
 
 #: step ``h``, steps per forcing period ``n_per``, transient and recorded periods, dense output
 #: every ``dense_every`` steps (0: none), divergence limit of ``max |q|``
@@ -66,7 +81,18 @@ def point_at(stk, p, structural):
     return Point(stk.law[p], stk.Aq[p], stk.Av[p], stk.Bt[p], stk.gv[p], stk.S[p], stk.wq[p],
                  stk.kt[p], stk.ct[p], stk.Mm[p], stk.Km[p], Cm, damp, stk.g[p], stk.tip[p],
                  stk.f0[p], stk.om[p], stk.tau_s[p], stk.tau_k[p], stk.fc[p], stk.fs[p],
-                 stk.vs[p], stk.kv[p], stk.eps[p], stk.Minv[p], stk.Linv[p])
+                 stk.vs[p], stk.kv[p], stk.eps[p], stk.Minv[p], stk.Linv[p], empty_rigid_cache())
+
+
+@njit(cache=True)
+def empty_rigid_cache():
+    """A :data:`RigidCache` without room (points of the other laws never read it)."""
+    e2 = np.zeros((0, 0))
+    e3 = np.zeros((0, 0, 0))
+    return RigidCache(np.full(0, -1, np.int64), e3, e3.copy(), e3.copy(), e3.copy(),
+                      np.zeros((0, 0), np.int64), e2, e2.copy(), e2.copy(), e2.copy(), e2.copy(),
+                      e2.copy(), np.zeros(0), np.zeros(0, np.int64),
+                      np.zeros(1, np.int64))
 
 
 @njit(cache=True)

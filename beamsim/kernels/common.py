@@ -15,6 +15,7 @@ import math
 import numpy as np
 from numba import njit
 
+from beamsim.friction import RIGID_STICK
 from beamsim.kernels.bundles import LEAF, State, Tally
 from beamsim.results import (
     FLAG_DIVERGED,
@@ -43,6 +44,33 @@ def slip_and_rate(S, j, q, v):
         s += S[j, k] * q[k]
         sd += S[j, k] * v[k]
     return s, sd
+
+
+@njit(cache=True, inline="always")
+def structural_acceleration(i, q, v, F, pt):
+    """Row ``i`` of ``M^-1 (g F - K q - C_struct v)`` (everything but the interface)."""
+    acc = pt.gv[i] * F
+    for k in range(q.shape[0]):
+        acc += pt.Aq[i, k] * q[k]
+    if pt.damp:
+        for k in range(q.shape[0]):
+            acc += pt.Av[i, k] * v[k]
+    return acc
+
+
+@njit(cache=True, inline="always")
+def damping_power(v, pt):
+    """``v.C v``, the power of the damping matrix the integrator books (0 without damping)."""
+    pd = 0.0
+    if pt.damp:
+        Cm = pt.Cm
+        n = v.shape[0]
+        for i in range(n):
+            ci = 0.0
+            for k in range(n):
+                ci += Cm[i, k] * v[k]
+            pd += v[i] * ci
+    return pd
 
 
 @njit(**LEAF)
@@ -140,7 +168,15 @@ def post_step(t, x, pt, tally, inrec, update=True):
     for j in range(nq):
         s, sd = slip_and_rate(S, j, q, v)
         stuck = False
-        if pt.law == 0 and not update:
+        if pt.law == RIGID_STICK:
+            # rigid stick (beamsim.kernels.rigid_stick): every switch is located; only points
+            # without friction (zero pressure) are set sliding here
+            if update and tau_s[j] <= 0.0:
+                mode[j] = 1
+            stuck = mode[j] == 0
+            if mode[j] != 0:
+                note_first_slip(stats, t)
+        elif pt.law == 0 and not update:
             stuck = mode[j] == 0
             if mode[j] != 0:
                 note_first_slip(stats, t)

@@ -12,7 +12,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit, prange
 
-from beamsim.kernels import common, rk4
+from beamsim.kernels import common, rigid_stick, rk4
 from beamsim.kernels.bundles import LEAF, State, Tally, point_at
 from beamsim.results import N_STATS
 
@@ -46,20 +46,28 @@ def error(q, v, yq, yv, inv_scale):
 
 
 @njit(**LEAF)
-def adopt_modes(x, y, S):
+def adopt_modes(x, y, pt):
     """Give a copy ``y`` the drive's (``x``) stick/slip state, element by element, together with
     the drive's elastic strain of that element: ``y_z = s_y - (s_x - z_x)``, so the element's
     traction equals the drive's (for a sliding drive element that is the kinetic traction).
     Without the strain a copy that broke away (``mu_s > mu_k``: ``z`` jumps by
     ``(mu_s - mu_k) p / k_t``) while the drive did not would keep a traction difference of
     ``(mu_s - mu_k) p`` when made to stick again: a finite jump of the separation that the
-    linearised dynamics do not have.  Returns the number of changed elements."""
+    linearised dynamics do not have.  Rigid stick: the drive's locked-in traction, and the
+    copy's velocity projected onto its new stuck set's constraint.  Returns the number of
+    changed elements."""
+    S = pt.S
     changed = 0
     n = x.q.shape[0]
     for j in range(x.mode.shape[0]):
         if y.mode[j] == x.mode[j]:
             continue
         changed += 1
+        if pt.law == rigid_stick.RIGID_STICK:
+            # a rigid stick's strain is its residual-traction memory
+            y.z[j] = x.z[j]
+            y.mode[j] = x.mode[j]
+            continue
         sx = 0.0
         sy = 0.0
         for k in range(n):
@@ -67,6 +75,8 @@ def adopt_modes(x, y, S):
             sy += S[j, k] * y.q[k]
         y.z[j] = sy - (sx - x.z[j])
         y.mode[j] = x.mode[j]
+    if changed and pt.law == rigid_stick.RIGID_STICK:
+        rigid_stick.project_velocity(y.v, y.mode, pt)
     return changed
 
 
@@ -89,7 +99,7 @@ def _row(rows, r):
 def _row_stages(rows, r):
     sh = rows.shared
     return rk4.Stages(sh.kq, sh.kv, sh.kz, sh.ke, sh.tau, rows.QN[r], rows.VN[r], rows.ZN[r],
-                      rows.EN[r], rows.SQ[r], rows.SV[r], rows.SZ[r])
+                      rows.EN[r], rows.SQ[r], rows.SV[r], rows.SZ[r], sh.g0)
 
 
 @njit(cache=True)
@@ -125,7 +135,8 @@ def _new_rows(x_start, spec, c0, c1, n, nq):
     SV = np.zeros((M + 1, 4, n))
     SZ = np.zeros((M + 1, 4, nq))
     shared = rk4.Stages(np.zeros((4, n)), np.zeros((4, n)), np.zeros((4, nq)), np.zeros((4, 3)),
-                        np.empty(nq), QN[0], VN[0], ZN[0], EN[0], SQ[0], SV[0], SZ[0])
+                        np.empty(nq), QN[0], VN[0], ZN[0], EN[0], SQ[0], SV[0], SZ[0],
+                        np.zeros(nq))
     return CopyRows(Q, V, Z, MODE, QN, VN, ZN, EN, SQ, SV, SZ, dd, np.zeros(M),
                     np.ones(M + 1, np.bool_), shared)
 
@@ -187,7 +198,7 @@ def _step_rows(step, h, n_per, rows, pt, tally, seg, cp):
 
 
 @njit(**LEAF)
-def _measure(p, c0, step, rows, spec, band, n_per, S, log_err):
+def _measure(p, c0, step, rows, spec, band, n_per, pt, log_err):
     """After a step: each copy's scaled error, recorded (with the carried rescaling factors) at
     period ends; a copy outside the band (or flagged for period renormalisation at a period
     end) is moved back to ``e0``; a copy within ``10 e0`` adopts the drive's stick/slip state;
@@ -213,7 +224,7 @@ def _measure(p, c0, step, rows, spec, band, n_per, S, log_err):
             rescale(band.e0 / e, x, y)
             e = band.e0
         if e <= 10.0 * band.e0:
-            adopt_modes(x, y, S)
+            adopt_modes(x, y, pt)
 
 
 @njit(cache=True)
@@ -223,9 +234,15 @@ def copies_task(p, c0, c1, pt, sch, x_start, spec, band, log_err, final):
     the drive diverged; ``+inf``: the copy did) and the end states ``(q, v, z, mode)`` of the
     drive (``final[p, 0]``, written by the task with ``c0 == 0``) and of the copies
     (``final[p, 1 + c0:1 + c1]``), from which a later call continues the run exactly."""
+    if pt.law == rigid_stick.RIGID_STICK:
+        pt = rigid_stick.with_cache(pt)
     n = pt.Aq.shape[0]
     nq = pt.S.shape[0]
     rows = _new_rows(x_start, spec, c0, c1, n, nq)
+    if pt.law == rigid_stick.RIGID_STICK:
+        # the copies start at offsets that need not respect the stuck set's constraint
+        for r in range(c1 - c0 + 1):
+            rigid_stick.project_velocity(rows.V[r], rows.MODE[r], pt)
     tally = Tally(np.zeros(3), np.zeros(N_STATS))
     x = _row(rows, 0)
     for m in range(c1 - c0):
@@ -246,7 +263,7 @@ def copies_task(p, c0, c1, pt, sch, x_start, spec, band, log_err, final):
                 for k in range(log_err.shape[2]):
                     log_err[p, c0 + m, k] = np.nan
             return
-        _measure(p, c0, step, rows, spec, band, n_per, pt.S, log_err)
+        _measure(p, c0, step, rows, spec, band, n_per, pt, log_err)
     for r in range(c1 - c0 + 1):
         if r == 0 and c0 != 0:
             continue

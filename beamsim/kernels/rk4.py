@@ -20,15 +20,16 @@ import numpy as np
 from numba import njit, prange
 
 from beamsim.friction import smooth_traction
-from beamsim.kernels import common
+from beamsim.kernels import common, rigid_stick
 from beamsim.kernels.bundles import LEAF, State, point_at, schedule_at
 from beamsim.results import FLAG_N_EVENTS
 
 #: scratch of one RK4 step: stage derivatives ``kq, kv, kz`` and ledger rates ``ke`` (4 rows),
-#: tractions ``tau``, the step's end state ``qn, vn, zn`` and ledger increment ``en``, and the
-#: stage states ``sq, sv, sz`` (4 rows)
+#: tractions ``tau``, the step's end state ``qn, vn, zn`` and ledger increment ``en``, the
+#: stage states ``sq, sv, sz`` (4 rows), and the rigid stick's event functions at the step's
+#: start ``g0``
 Stages = namedtuple("Stages", ("kq", "kv", "kz", "ke", "tau", "qn", "vn", "zn", "en", "sq", "sv",
-                               "sz"))
+                               "sz", "g0"))
 
 #: one-way coupling ``d (x - y)`` of a copy to a drive that starts a substep at
 #: ``(xq, xv, xz)`` with stick/slip state ``xmode``; ``xqn, xvn, xzn`` and ``xsq, xsv, xsz``
@@ -52,7 +53,7 @@ def new_stages(n, nq):
     """Zeroed :data:`Stages` for ``n`` coordinates and ``nq`` Jenkins elements."""
     return Stages(np.zeros((4, n)), np.zeros((4, n)), np.zeros((4, nq)), np.zeros((4, 3)),
                   np.empty(nq), np.empty(n), np.empty(n), np.empty(nq), np.empty(3),
-                  np.zeros((4, n)), np.zeros((4, n)), np.zeros((4, nq)))
+                  np.zeros((4, n)), np.zeros((4, n)), np.zeros((4, nq)), np.zeros(nq))
 
 
 @njit(cache=True)
@@ -85,9 +86,11 @@ def deriv(t, q, v, z, mode, pt, dq, dv, dz, de, tau):
     ``q' = v``, ``v' = Aq q + Av v + Bt tau + gv F(t)``, ``z' = s'`` on slipping elements, and
     the ledger rates ``de = (F g.v, friction power, damping power)``; ``tau`` receives the
     interface tractions (Jenkins or regularised law, plus the interface dashpot ``ct s'``)."""
-    Aq, Av, Bt, gv, S, wq, kt, ct = pt.Aq, pt.Av, pt.Bt, pt.gv, pt.S, pt.wq, pt.kt, pt.ct
     law = pt.law
-    damp = pt.damp
+    if law == rigid_stick.RIGID_STICK:
+        rigid_stick.deriv(t, q, v, z, mode, pt, dq, dv, dz, de, tau)
+        return
+    Bt, S, wq, kt, ct = pt.Bt, pt.S, pt.wq, pt.kt, pt.ct
     n = q.shape[0]
     nq = z.shape[0]
     F = pt.f0 * (math.cos(pt.om * t) - 1.0)
@@ -114,28 +117,15 @@ def deriv(t, q, v, z, mode, pt, dq, dv, dz, de, tau):
             tau[j] = tj
     pw = 0.0
     for i in range(n):
-        acc = gv[i] * F
-        for k in range(n):
-            acc += Aq[i, k] * q[k]
-        if damp:
-            for k in range(n):
-                acc += Av[i, k] * v[k]
+        acc = common.structural_acceleration(i, q, v, F, pt)
         for j in range(nq):
             acc += Bt[i, j] * tau[j]
         dv[i] = acc
         dq[i] = v[i]
         pw += pt.g[i] * v[i]
-    pd = 0.0
-    if damp:
-        Cm = pt.Cm
-        for i in range(n):
-            ci = 0.0
-            for k in range(n):
-                ci += Cm[i, k] * v[k]
-            pd += v[i] * ci
     de[0] = F * pw
     de[1] = dD
-    de[2] = pd + dC
+    de[2] = common.damping_power(v, pt) + dC
 
 
 @njit(cache=True, inline="always")
@@ -154,7 +144,8 @@ def rk4_incr(t, hs, x, pt, w, dcoup, xw):
     new state goes to ``(w.qn, w.vn, w.zn)``, the energy-ledger increment to ``w.en`` (``x`` is
     not modified); the stage states are left in ``w.sq, w.sv, w.sz``.  A coupled copy
     (``dcoup > 0``) gets ``dcoup (x_drive - y)`` added to every stage derivative, with the
-    drive's stage states ``xw.sq, xw.sv, xw.sz``."""
+    drive's stage states ``xw.sq, xw.sv, xw.sz``.  Rigid stick: the event functions at ``x``
+    go to ``w.g0``."""
     q, v, z, mode = x.q, x.v, x.z, x.mode
     kq, kv, kz, ke, sq, sv, sz = w.kq, w.kv, w.kz, w.ke, w.sq, w.sv, w.sz
     n = q.shape[0]
@@ -168,6 +159,10 @@ def rk4_incr(t, hs, x, pt, w, dcoup, xw):
             c = hs if st == 3 else hh
             _stage_state(c, q, v, z, kq[st - 1], kv[st - 1], kz[st - 1], sq[st], sv[st], sz[st])
         deriv(t + c, sq[st], sv[st], sz[st], mode, pt, kq[st], kv[st], kz[st], ke[st], w.tau)
+        if st == 0 and pt.law == rigid_stick.RIGID_STICK:
+            # the event functions at the step's start (for first_event), from this stage;
+            # kq[1] is free until stage 1
+            rigid_stick.events_from(t, v, mode, pt, w.tau, kv[0], kq[1], w.g0)
         if dcoup != 0.0:
             for i in range(n):
                 kq[st, i] += dcoup * (xw.sq[st, i] - sq[st, i])
@@ -185,11 +180,14 @@ def rk4_incr(t, hs, x, pt, w, dcoup, xw):
 
 
 @njit(cache=True, inline="always")
-def first_event(x, w, pt):
-    """Earliest stick/slip switch of the Jenkins elements inside a step from ``x`` to
-    ``(w.qn, w.vn, w.zn)``: the event functions ``g = |k_t (s - z)| - tau_s`` (stuck) and
-    ``g = -mode s'`` (slipping) are interpolated linearly between the step ends.  Returns
-    ``(theta, j)``, the step fraction and the element, or ``(2.0, -1)`` if none switches."""
+def first_event(t0, t1, x, w, pt):
+    """Earliest stick/slip switch of the Jenkins elements inside a step from ``(t0, x)`` to
+    ``(t1, w.qn, w.vn, w.zn)``: the event functions ``g = |k_t (s - z)| - tau_s`` (stuck) and
+    ``g = -mode s'`` (slipping) are interpolated linearly between the step ends (the rigid
+    stick: :func:`beamsim.kernels.rigid_stick.first_event`).  Returns ``(theta, j)``, the step
+    fraction and the element, or ``(2.0, -1)`` if none switches."""
+    if pt.law == rigid_stick.RIGID_STICK:
+        return rigid_stick.first_event(t0, t1, x, w, pt)
     q, v, z, mode, S, kt, tau_s = x.q, x.v, x.z, x.mode, pt.S, pt.kt, pt.tau_s
     n = q.shape[0]
     nq = z.shape[0]
@@ -223,8 +221,11 @@ def first_event(x, w, pt):
 
 
 @njit(**LEAF)
-def event_g(j, q, v, z, mode, pt):
-    """Event function of element ``j`` (> 0: its stick/slip state is violated)."""
+def event_g(j, t, q, v, z, mode, pt, w):
+    """Event function of element ``j`` at ``(t, q, v, z)`` (> 0: its stick/slip state is
+    violated); ``w``: scratch of the rigid stick's tractions."""
+    if pt.law == rigid_stick.RIGID_STICK:
+        return rigid_stick.event_value(j, t, q, v, z, mode, pt, w)
     a = 0.0
     S = pt.S
     if mode[j] == 0:
@@ -234,6 +235,12 @@ def event_g(j, q, v, z, mode, pt):
     for k in range(q.shape[0]):
         a += S[j, k] * v[k]
     return -mode[j] * a
+
+
+@njit(cache=True, inline="always")
+def has_switches(law):
+    """True for the laws with located stick/slip switches (Jenkins and rigid stick)."""
+    return law == 0 or law == rigid_stick.RIGID_STICK
 
 
 @njit(cache=True, inline="always")
@@ -255,8 +262,8 @@ def try_full_step(t, h, x, pt, ecum, w, dcoup, xw):
     then locates the switches, :func:`located_step`)."""
     rk4_incr(t, h, x, pt, w, dcoup, xw)
     th = 2.0
-    if pt.law == 0:
-        th, _ = first_event(x, w, pt)
+    if has_switches(pt.law):
+        th, _ = first_event(t, t + h, x, w, pt)
     if th >= 1.0:
         accept(x, ecum, w)
         return True
@@ -270,16 +277,16 @@ def _locate(j, tl, rem, th, x, pt, w, cp, xst, xw):
     ``EVENT_RTOL``); leaves the substep up to the crossing in ``w`` (and the drive's in ``xw``)
     and returns its fraction."""
     a = 0.0
-    ga = event_g(j, x.q, x.v, x.z, x.mode, pt)
+    ga = event_g(j, tl, x.q, x.v, x.z, x.mode, pt, w)
     b = 1.0
-    gb = event_g(j, w.qn, w.vn, w.zn, x.mode, pt)
+    gb = event_g(j, tl + rem, w.qn, w.vn, w.zn, x.mode, pt, w)
     tol = EVENT_RTOL * (abs(ga) + abs(gb))
     side = 0
     for itr in range(EVENT_ITERATIONS + 1):
         if cp.d != 0.0:
             rk4_incr(tl, th * rem, xst, pt, xw, 0.0, xw)
         rk4_incr(tl, th * rem, x, pt, w, cp.d, xw)
-        gm = event_g(j, w.qn, w.vn, w.zn, x.mode, pt)
+        gm = event_g(j, tl + th * rem, w.qn, w.vn, w.zn, x.mode, pt, w)
         if abs(gm) <= tol or b - a <= 1e-14 or itr == EVENT_ITERATIONS:
             break
         a, ga, b, gb, th, side = common.illinois(a, ga, b, gb, th, gm, side)
@@ -304,7 +311,7 @@ def located_step(t, hs, h_tol, x, pt, tally, w, cp, seg, record):
     ``cp.d (x - y)`` to every stage of the copy."""
     xst = State(cp.xq, cp.xv, cp.xz, cp.xmode)
     xw = Stages(w.kq, w.kv, w.kz, w.ke, w.tau, cp.xqn, cp.xvn, cp.xzn, w.en, cp.xsq, cp.xsv,
-                cp.xsz)
+                cp.xsz, w.g0)
     rem = hs
     tl = t
     n_switch = 0
@@ -320,8 +327,8 @@ def located_step(t, hs, h_tol, x, pt, tally, w, cp, seg, record):
         rk4_incr(tl, rem, x, pt, w, cp.d, xw)
         th = 2.0
         j = -1
-        if pt.law == 0 and it < MAX_SWITCHES_PER_STEP:
-            th, j = first_event(x, w, pt)
+        if has_switches(pt.law) and it < MAX_SWITCHES_PER_STEP:
+            th, j = first_event(tl, tl + rem, x, w, pt)
         if th >= 1.0:
             accept(x, tally.ecum, w)
             break
@@ -339,10 +346,13 @@ def located_step(t, hs, h_tol, x, pt, tally, w, cp, seg, record):
             hs_acc = 0.0
         tl += hs_acc
         rem -= hs_acc
-        s = 0.0
-        for k in range(x.q.shape[0]):
-            s += pt.S[j, k] * x.q[k]
-        common.apply_switch(j, tl, s, x, pt, tally)
+        if pt.law == rigid_stick.RIGID_STICK:
+            rigid_stick.switch(j, tl, x, pt, tally, w)
+        else:
+            s = 0.0
+            for k in range(x.q.shape[0]):
+                s += pt.S[j, k] * x.q[k]
+            common.apply_switch(j, tl, s, x, pt, tally)
         n_switch += 1
         if rem <= 1e-12 * h_tol:
             break
@@ -354,7 +364,12 @@ def located_step(t, hs, h_tol, x, pt, tally, w, cp, seg, record):
 @njit(cache=True)
 def rk4_point(p, pt, sched, x0, out):
     """Integrate point ``p`` (the step contract of :mod:`beamsim.kernels`)."""
+    if pt.law == rigid_stick.RIGID_STICK:
+        pt = rigid_stick.with_cache(pt)
     x, tally, _ = common.start_point(p, x0, pt, sched, out)
+    if pt.law == rigid_stick.RIGID_STICK:
+        # a given initial velocity need not respect the stuck set's constraint
+        rigid_stick.project_velocity(x.v, x.mode, pt)
     n = pt.Aq.shape[0]
     nq = pt.S.shape[0]
     w = new_stages(n, nq)

@@ -18,11 +18,12 @@ from analysis.pipeline.stages import (
 from analysis.pipeline.store import PointStore
 
 
-def test_auto_integrator_is_expo_for_stick_slip_and_rk4_for_the_regularised_laws():
+def test_auto_integrator_is_expo_for_stick_slip_and_rk4_for_the_other_laws():
     assert integrator("auto", {"law": "stick-slip"}) == "expo"
     assert integrator("auto", {}) == "expo"  # stick-slip is the model default
     assert integrator("auto", {"law": "full-slip"}) == "rk4"
     assert integrator("auto", {"law": "stribeck"}) == "rk4"
+    assert integrator("auto", {"law": "rigid-stick"}) == "rk4"
     for method in ("rk4", "expo", "newmark"):
         assert integrator(method, {"law": "stick-slip"}) == method
 

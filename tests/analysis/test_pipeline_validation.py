@@ -136,3 +136,64 @@ def test_contradicting_numerics_are_one_line_before_any_point(tmp_path):
         build_plan(cfg, SCHEMA.parent)
     msg = str(err.value)
     assert msg.startswith("invalid config:") and "n_transient_max = 100" in msg and "\n" not in msg, msg
+
+
+@pytest.mark.parametrize("edit, words", [
+    (dict(method="expo"), ("numerics.method = 'expo'", "law='rigid-stick'")),
+    (dict(method="newmark"), ("numerics.method = 'newmark'", "law='rigid-stick'")),
+    (dict(method="auto", refinements=["step", "k_t"]), ("'k_t'", "rigid-stick", "no stick stiffness")),
+])
+def test_rigid_stick_with_an_integrator_or_refinement_it_lacks_is_one_line(tmp_path, edit, words):
+    """The rigid stick has no ``expo``/``newmark`` integrator and no stick stiffness to refine:
+    either is refused at planning, in one line naming the key."""
+    from analysis.pipeline.plan import build_plan
+
+    cfg = _config()
+    cfg["model"]["law"] = "rigid-stick"
+    cfg["model"]["mu_s"] = cfg["model"]["mu_k"] = 0.3
+    cfg["grid_file"] = str(_equal_coefficients_grid(tmp_path))
+    cfg["numerics"]["method"] = edit["method"]
+    cfg["convergence"] = {"sample": 4, "refinements": edit.get("refinements", ["step"])}
+    with pytest.raises(WorkflowError) as err:
+        build_plan(cfg, SCHEMA.parent)
+    msg = str(err.value)
+    assert msg.startswith("invalid config:") and "\n" not in msg, msg
+    for w in words:
+        assert w in msg, msg
+
+
+def _equal_coefficients_grid(tmp_path):
+    """The shipped grid file with ``mu_s = mu_k`` on every grid (the rigid stick's exponent
+    exists only then)."""
+    grids = yaml.safe_load((ROOT / "config" / "grid.yaml").read_text())
+    for g in grids["grids"].values():
+        g.setdefault("fixed", {}).update(mu_s=0.3, mu_k=0.3)
+    path = tmp_path / "grid.yaml"
+    path.write_text(yaml.safe_dump(grids))
+    return path
+
+
+def test_rigid_stick_plans_with_rk4(tmp_path):
+    from analysis.pipeline.plan import build_plan
+
+    cfg = _config()
+    cfg["model"]["law"] = "rigid-stick"
+    cfg["grid_file"] = str(_equal_coefficients_grid(tmp_path))
+    cfg["convergence"] = {"sample": 4, "refinements": ["step", "windows", "modes"]}
+    plan = build_plan(cfg, SCHEMA.parent)
+    assert plan.simulation_methods == ["rk4"]
+
+
+def test_a_rigid_stick_map_with_a_breakaway_drop_is_refused():
+    """``mu_s > mu_k`` with the rigid stick: no Lyapunov exponent to map (one line, naming
+    both coefficients and the alternative)."""
+    from analysis.pipeline.plan import build_plan
+
+    cfg = _config()
+    cfg["model"]["law"] = "rigid-stick"
+    cfg["grid_file"] = str(ROOT / "config" / "grid.yaml")  # mu_s 0.45, mu_k 0.3
+    with pytest.raises(WorkflowError) as err:
+        build_plan(cfg, SCHEMA.parent)
+    msg = str(err.value)
+    assert msg.startswith("invalid config:") and "\n" not in msg, msg
+    assert "mu_s = 0.45 > mu_k = 0.3" in msg and "stick-slip" in msg, msg

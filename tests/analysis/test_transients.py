@@ -122,6 +122,7 @@ def test_which_points_need_the_long_record():
     periodic = np.random.default_rng(0).normal(size=(3, 2))[np.arange(N) % 3]
     assert "periodic record" in long_record_exemption(row(periodic, 0.5), {})
     assert long_record_exemption(row(torus, 1.0), {"law": "stick-slip"}) == LINEAR_VERDICT
+    assert long_record_exemption(row(torus, 1.0), {"law": "rigid-stick"}) == LINEAR_VERDICT
     assert long_record_exemption(row(torus, 1.0), {"law": "full-slip"}) is None
     assert long_record_exemption(row(torus, 0.9), {}) is None
 

@@ -8,9 +8,10 @@ full-slip traction is a non-decreasing function of the slip rate, and the dashpo
 damping only dissipate.  The energy of the *difference* of two solutions,
 ``D = 1/2 dv' M dv + 1/2 dq' K dq + 1/2 k_t sum_j w_j (S dq - dz)_j^2``, therefore never grows:
 ``dD/dt = -dv' C dv - sum_j w_j (dsigma_j dz'_j) <= 0``.  Hence ``lambda_1 <= 0`` at every
-forcing: such a beam cannot be chaotic.  This is a property of the equations, independent of
-the code; a kernel that created energy at a switch (a wrong ``z`` update, a wrong slip
-direction, a wrong traction) would break it.
+forcing: such a beam cannot be chaotic. The rigid stick is the limit ``k_t -> inf``: its
+interface term vanishes (``|dtau|^2 / (2 k_t)``) and Coulomb's set-valued law is monotone. This
+is a property of the equations, independent of the code; a kernel that created energy at a
+switch (a wrong ``z`` update, a wrong slip direction, a wrong traction) would break it.
 """
 import numpy as np
 import pytest
@@ -34,7 +35,8 @@ def _distance(model, a, b, with_interface):
     dict(law="stick-slip", interface_damping=0.5),
     dict(law="stick-slip", interface_damping=0.0),
     dict(law="full-slip", interface_damping=0.5),
-], ids=["stick-slip", "stick-slip-undamped-interface", "full-slip"])
+    dict(law="rigid-stick", interface_viscosity=0.0939),
+], ids=["stick-slip", "stick-slip-undamped-interface", "full-slip", "rigid-stick"])
 def test_energy_distance_of_two_solutions_never_grows(case):
     base = dict(case, mu_s=0.3, mu_k=0.3, n_modes=1, Omega=2.0, f0_rel=2.5)
     model = prepare_point(**base).model
