@@ -48,6 +48,7 @@ import math
 import numba
 import numpy as np
 
+from beamsim.friction import RIGID_STICK
 from beamsim.kernels import copies
 from beamsim.point import period_steps, stack_points
 from beamsim.two_layer import check_int, check_positive
@@ -122,10 +123,15 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
     if n_threads is not None:
         numba.set_num_threads(threads)
     try:
-        copies.run_tasks(np.array(tasks, np.int64).reshape(-1, 3), stk,
-                         copies.CopySchedule(h, n_per, n_periods, stk.divl), x_start,
-                         copies.CopySpec(offsets, d, renorm_period, inv_scale),
-                         copies.Band(e0, e0 * band[0], e0 * band[1]), log_err, final)
+        all_tasks = np.array(tasks, np.int64).reshape(-1, 3)
+        rigid = stk.law[all_tasks[:, 0]] == RIGID_STICK
+        # the rigid stick's kernel is its own (compiled only when a rigid point is run)
+        for kernel, sel in ((copies.run_tasks, ~rigid), (copies.run_tasks_rigid, rigid)):
+            if sel.any():
+                kernel(np.ascontiguousarray(all_tasks[sel]), stk,
+                       copies.CopySchedule(h, n_per, n_periods, stk.divl), x_start,
+                       copies.CopySpec(offsets, d, renorm_period, inv_scale),
+                       copies.Band(e0, e0 * band[0], e0 * band[1]), log_err, final)
     finally:
         if n_threads is not None:
             numba.set_num_threads(old)

@@ -34,6 +34,7 @@ from typing import Callable
 import numba
 import numpy as np
 
+from beamsim.friction import RIGID_STICK
 from beamsim.kernels import expo, newmark, rk4
 from beamsim.kernels.bundles import Outputs, Schedule
 from beamsim.point import (
@@ -61,7 +62,11 @@ class Method:
 
 
 def _run_rk4(stk, sched, opts, out):
-    rk4.run_batch(stk, sched, out)
+    # the rigid stick's kernel is its own (compiled only when a rigid point is run)
+    rigid = stk.law == RIGID_STICK
+    for kernel, sel in ((rk4.run_batch, ~rigid), (rk4.run_batch_rigid, rigid)):
+        if sel.any():
+            kernel(stk, sched, out, np.flatnonzero(sel))
 
 
 def _run_expo(stk, sched, opts, out):
@@ -79,7 +84,8 @@ METHODS = {
     "newmark": Method(_run_newmark, laws=METHOD_LAWS["newmark"]),
 }
 
-#: expo's bit keys of stick patterns hold at most this many Jenkins elements
+#: the bit keys of stick patterns (expo's decompositions, the rigid stick's constraint
+#: matrices) hold at most this many interface points
 EXPO_MAX_QUAD = 62
 
 
@@ -90,6 +96,8 @@ def _check_method(method: str, prepared: list) -> None:
         check_method_law(method, pp.friction.law)
         if method == "expo" and pp.model.n_quad > EXPO_MAX_QUAD:
             raise ValueError(f"method='expo' supports n_quad <= {EXPO_MAX_QUAD}")
+        if pp.friction.law == "rigid-stick" and pp.model.n_quad > EXPO_MAX_QUAD:
+            raise ValueError(f"law='rigid-stick' supports n_quad <= {EXPO_MAX_QUAD}")
     n, nq = prepared[0].model.n, prepared[0].model.n_quad
     for pp in prepared:
         if pp.model.n != n or pp.model.n_quad != nq:

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 from collections import namedtuple
 
-import numpy as np
 from numba import njit
 
 #: njit options of a hot kernel that allocates nothing (no array is created or returned):
@@ -48,9 +47,12 @@ _POINT_INPUTS = ("law", "Aq", "Av", "Bt", "gv", "S", "wq", "kt", "ct", "Mm", "Km
 RigidCache = namedtuple("RigidCache", ("keys", "F", "E", "R", "Pv", "red", "MS", "G", "sa", "sv",
                                        "su", "sw", "sl", "si", "count"))
 
-#: constant inputs of one point (above) and the rigid stick's pattern cache ``rc`` (an empty
-#: one unless the kernel of a ``rigid-stick`` point installs a real one)
-Point = namedtuple("Point", _POINT_INPUTS + ("rc",))
+Point = namedtuple("Point", _POINT_INPUTS)
+
+#: a rigid-stick point: :data:`Point`'s inputs and its pattern cache ``rc``.  A distinct type,
+#: so that the kernels dispatch on it when they are compiled (``beamsim.kernels.law``) and
+#: the other laws' kernels contain none of the rigid stick's code
+RigidPoint = namedtuple("RigidPoint", _POINT_INPUTS + ("rc",))
 
 #: every point's inputs stacked (``Cm, damp``: full damping; ``Cs, damp_s``: structural part;
 #: ``x0``: initial states; ``divl``: divergence limits)
@@ -81,18 +83,7 @@ def point_at(stk, p, structural):
     return Point(stk.law[p], stk.Aq[p], stk.Av[p], stk.Bt[p], stk.gv[p], stk.S[p], stk.wq[p],
                  stk.kt[p], stk.ct[p], stk.Mm[p], stk.Km[p], Cm, damp, stk.g[p], stk.tip[p],
                  stk.f0[p], stk.om[p], stk.tau_s[p], stk.tau_k[p], stk.fc[p], stk.fs[p],
-                 stk.vs[p], stk.kv[p], stk.eps[p], stk.Minv[p], stk.Linv[p], empty_rigid_cache())
-
-
-@njit(cache=True)
-def empty_rigid_cache():
-    """A :data:`RigidCache` without room (points of the other laws never read it)."""
-    e2 = np.zeros((0, 0))
-    e3 = np.zeros((0, 0, 0))
-    return RigidCache(np.full(0, -1, np.int64), e3, e3.copy(), e3.copy(), e3.copy(),
-                      np.zeros((0, 0), np.int64), e2, e2.copy(), e2.copy(), e2.copy(), e2.copy(),
-                      e2.copy(), np.zeros(0), np.zeros(0, np.int64),
-                      np.zeros(1, np.int64))
+                 stk.vs[p], stk.kv[p], stk.eps[p], stk.Minv[p], stk.Linv[p])
 
 
 @njit(cache=True)

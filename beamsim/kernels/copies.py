@@ -75,8 +75,8 @@ def adopt_modes(x, y, pt):
             sy += S[j, k] * y.q[k]
         y.z[j] = sy - (sx - x.z[j])
         y.mode[j] = x.mode[j]
-    if changed and pt.law == rigid_stick.RIGID_STICK:
-        rigid_stick.project_velocity(y.v, y.mode, pt)
+    if changed:
+        rk4.project_velocity(y.v, y.mode, pt)
     return changed
 
 
@@ -234,15 +234,12 @@ def copies_task(p, c0, c1, pt, sch, x_start, spec, band, log_err, final):
     the drive diverged; ``+inf``: the copy did) and the end states ``(q, v, z, mode)`` of the
     drive (``final[p, 0]``, written by the task with ``c0 == 0``) and of the copies
     (``final[p, 1 + c0:1 + c1]``), from which a later call continues the run exactly."""
-    if pt.law == rigid_stick.RIGID_STICK:
-        pt = rigid_stick.with_cache(pt)
     n = pt.Aq.shape[0]
     nq = pt.S.shape[0]
     rows = _new_rows(x_start, spec, c0, c1, n, nq)
-    if pt.law == rigid_stick.RIGID_STICK:
-        # the copies start at offsets that need not respect the stuck set's constraint
-        for r in range(c1 - c0 + 1):
-            rigid_stick.project_velocity(rows.V[r], rows.MODE[r], pt)
+    # the copies start at offsets that need not respect a rigid stuck set's constraint
+    for r in range(c1 - c0 + 1):
+        rk4.project_velocity(rows.V[r], rows.MODE[r], pt)
     tally = Tally(np.zeros(3), np.zeros(N_STATS))
     x = _row(rows, 0)
     for m in range(c1 - c0):
@@ -283,6 +280,17 @@ def run_tasks(tasks, stk, sch, x_start, spec, band, log_err, final):
     for k in prange(tasks.shape[0]):
         p = tasks[k, 0]
         copies_task(p, tasks[k, 1], tasks[k, 2], point_at(stk, p, True),
+                    CopySchedule(sch.h[p], sch.n_per[p], sch.n_periods, sch.div_limit[p]),
+                    x_start[p], CopySpec(spec.offsets[p], spec.d[p], spec.renorm_period[p],
+                                         spec.inv_scale[p]), band, log_err, final)
+
+
+@njit(cache=True, parallel=True)
+def run_tasks_rigid(tasks, stk, sch, x_start, spec, band, log_err, final):
+    """:func:`run_tasks` for rigid-stick points (a kernel of its own: compiled only when used)."""
+    for k in prange(tasks.shape[0]):
+        p = tasks[k, 0]
+        copies_task(p, tasks[k, 1], tasks[k, 2], rigid_stick.with_cache(point_at(stk, p, True)),
                     CopySchedule(sch.h[p], sch.n_per[p], sch.n_periods, sch.div_limit[p]),
                     x_start[p], CopySpec(spec.offsets[p], spec.d[p], spec.renorm_period[p],
                                          spec.inv_scale[p]), band, log_err, final)

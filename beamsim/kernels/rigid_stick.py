@@ -37,12 +37,13 @@ from numba import njit
 
 from beamsim.friction import RIGID_STICK as RIGID_STICK_LAW
 from beamsim.kernels import common
-from beamsim.kernels.bundles import LEAF, Point, RigidCache
+from beamsim.kernels.bundles import LEAF, RigidCache, RigidPoint
 
 #: the friction-law code of the rigid stick (:data:`beamsim.friction.LAWS`)
 RIGID_STICK = RIGID_STICK_LAW
 
-#: patterns a point's cache holds (open addressing on the bit key; when full it is cleared)
+#: slots of a point's pattern cache (a power of two; open addressing on the bit key, cleared
+#: when half full)
 CAPACITY = 512
 
 #: relative size below which an eigenvalue of ``G_A`` counts as zero (a redundant constraint)
@@ -75,8 +76,8 @@ def new_cache(n, nq, capacity):
 
 @njit(cache=True)
 def with_cache(pt):
-    """``pt`` with a real :data:`RigidCache` (``M^-1 S^T`` and ``G = S M^-1 S^T`` filled) in
-    place of the empty one of :func:`~beamsim.kernels.bundles.point_at`."""
+    """The :data:`~beamsim.kernels.bundles.RigidPoint` of a point ``pt``: its inputs and a new
+    :data:`RigidCache` (``M^-1 S^T`` and ``G = S M^-1 S^T`` filled)."""
     n = pt.Aq.shape[0]
     nq = pt.S.shape[0]
     rc = new_cache(n, nq, CAPACITY)
@@ -100,9 +101,9 @@ def with_cache(pt):
             m = 0.5 * (G[a, b] + G[b, a])
             G[a, b] = m
             G[b, a] = m
-    return Point(pt.law, pt.Aq, pt.Av, pt.Bt, pt.gv, pt.S, pt.wq, pt.kt, pt.ct, pt.Mm, pt.Km,
-                 pt.Cm, pt.damp, pt.g, pt.tip, pt.f0, pt.om, pt.tau_s, pt.tau_k, pt.fc, pt.fs,
-                 pt.vs, pt.kv, pt.eps, pt.Minv, pt.Linv, rc)
+    return RigidPoint(pt.law, pt.Aq, pt.Av, pt.Bt, pt.gv, pt.S, pt.wq, pt.kt, pt.ct, pt.Mm,
+                      pt.Km, pt.Cm, pt.damp, pt.g, pt.tip, pt.f0, pt.om, pt.tau_s, pt.tau_k, pt.fc,
+                      pt.fs, pt.vs, pt.kv, pt.eps, pt.Minv, pt.Linv, rc)
 
 
 @njit(**LEAF)
@@ -309,8 +310,8 @@ def pattern_slot(mode, pt):
     if key == 0:
         return -1
     rc = pt.rc
-    C = rc.keys.shape[0]
-    h = (key * 2654435761) % C
+    C = rc.keys.shape[0]  # a power of two
+    h = (key ^ (key >> 9) ^ (key >> 18) ^ (key >> 27) ^ (key >> 36) ^ (key >> 45)) & (C - 1)
     for probe in range(C):
         s = (h + probe) % C
         k = rc.keys[s]

@@ -18,10 +18,11 @@ from collections import namedtuple
 
 import numpy as np
 from numba import njit, prange
+from numba.extending import overload
 
 from beamsim.friction import smooth_traction
 from beamsim.kernels import common, rigid_stick
-from beamsim.kernels.bundles import LEAF, State, point_at, schedule_at
+from beamsim.kernels.bundles import LEAF, RigidPoint, State, point_at, schedule_at
 from beamsim.results import FLAG_N_EVENTS
 
 #: scratch of one RK4 step: stage derivatives ``kq, kv, kz`` and ledger rates ``ke`` (4 rows),
@@ -80,16 +81,37 @@ def uncoupled(x, w):
     return Coupling(0.0, x.q, x.v, x.z, x.mode, w.qn, w.vn, w.zn, w.sq, w.sv, w.sz)
 
 
-@njit(cache=True, inline="always")
+def _rigid(pt) -> bool:
+    """At compile time: is the point type a :data:`~beamsim.kernels.bundles.RigidPoint`?"""
+    return getattr(pt, "instance_class", None) is RigidPoint
+
+
 def deriv(t, q, v, z, mode, pt, dq, dv, dz, de, tau):
+    """Right-hand side (compiled kernels only): :func:`_jenkins_deriv` for a
+    :data:`~beamsim.kernels.bundles.Point`, :func:`beamsim.kernels.rigid_stick.deriv` for a
+    :data:`~beamsim.kernels.bundles.RigidPoint` -- chosen when the kernel is compiled, so a
+    kernel of one contains no code of the other."""
+    raise NotImplementedError("a compiled kernel's function")
+
+
+@overload(deriv, inline="always")
+def _deriv_of(t, q, v, z, mode, pt, dq, dv, dz, de, tau):
+    if _rigid(pt):
+        def impl(t, q, v, z, mode, pt, dq, dv, dz, de, tau):
+            rigid_stick.deriv(t, q, v, z, mode, pt, dq, dv, dz, de, tau)
+    else:
+        def impl(t, q, v, z, mode, pt, dq, dv, dz, de, tau):
+            _jenkins_deriv(t, q, v, z, mode, pt, dq, dv, dz, de, tau)
+    return impl
+
+
+@njit(cache=True, inline="always")
+def _jenkins_deriv(t, q, v, z, mode, pt, dq, dv, dz, de, tau):
     """Right-hand side at ``(t, q, v, z)`` with the stick/slip state ``mode`` frozen:
     ``q' = v``, ``v' = Aq q + Av v + Bt tau + gv F(t)``, ``z' = s'`` on slipping elements, and
     the ledger rates ``de = (F g.v, friction power, damping power)``; ``tau`` receives the
     interface tractions (Jenkins or regularised law, plus the interface dashpot ``ct s'``)."""
     law = pt.law
-    if law == rigid_stick.RIGID_STICK:
-        rigid_stick.deriv(t, q, v, z, mode, pt, dq, dv, dz, de, tau)
-        return
     Bt, S, wq, kt, ct = pt.Bt, pt.S, pt.wq, pt.kt, pt.ct
     n = q.shape[0]
     nq = z.shape[0]
@@ -159,10 +181,10 @@ def rk4_incr(t, hs, x, pt, w, dcoup, xw):
             c = hs if st == 3 else hh
             _stage_state(c, q, v, z, kq[st - 1], kv[st - 1], kz[st - 1], sq[st], sv[st], sz[st])
         deriv(t + c, sq[st], sv[st], sz[st], mode, pt, kq[st], kv[st], kz[st], ke[st], w.tau)
-        if st == 0 and pt.law == rigid_stick.RIGID_STICK:
-            # the event functions at the step's start (for first_event), from this stage;
-            # kq[1] is free until stage 1
-            rigid_stick.events_from(t, v, mode, pt, w.tau, kv[0], kq[1], w.g0)
+        if st == 0:
+            # the rigid stick's event functions at the step's start (for first_event), from
+            # this stage; kq[1] is free until stage 1
+            start_events(t, v, mode, pt, w.tau, kv[0], kq[1], w.g0)
         if dcoup != 0.0:
             for i in range(n):
                 kq[st, i] += dcoup * (xw.sq[st, i] - sq[st, i])
@@ -179,15 +201,85 @@ def rk4_incr(t, hs, x, pt, w, dcoup, xw):
         w.en[r] = h6 * (ke[0, r] + 2.0 * ke[1, r] + 2.0 * ke[2, r] + ke[3, r])
 
 
-@njit(cache=True, inline="always")
 def first_event(t0, t1, x, w, pt):
+    """Earliest switch inside a step (compiled kernels only): :func:`_jenkins_first_event` or
+    :func:`beamsim.kernels.rigid_stick.first_event`, by the point's type."""
+    raise NotImplementedError("a compiled kernel's function")
+
+
+@overload(first_event, inline="always")
+def _first_event_of(t0, t1, x, w, pt):
+    if _rigid(pt):
+        def impl(t0, t1, x, w, pt):
+            return rigid_stick.first_event(t0, t1, x, w, pt)
+    else:
+        def impl(t0, t1, x, w, pt):
+            return _jenkins_first_event(t0, t1, x, w, pt)
+    return impl
+
+
+def start_events(t, v, mode, pt, tau, acc, scratch, g0):
+    """The event functions at a step's start from its first stage (compiled kernels only): the
+    rigid stick's (:func:`beamsim.kernels.rigid_stick.events_from`); nothing for a Jenkins
+    point, whose event functions need no stage."""
+    raise NotImplementedError("a compiled kernel's function")
+
+
+@overload(start_events, inline="always")
+def _start_events_of(t, v, mode, pt, tau, acc, scratch, g0):
+    if _rigid(pt):
+        def impl(t, v, mode, pt, tau, acc, scratch, g0):
+            rigid_stick.events_from(t, v, mode, pt, tau, acc, scratch, g0)
+    else:
+        def impl(t, v, mode, pt, tau, acc, scratch, g0):
+            pass
+    return impl
+
+
+def switch(j, t, x, pt, tally, w):
+    """Switch element ``j`` at a located event (compiled kernels only):
+    :func:`beamsim.kernels.common.apply_switch` or :func:`beamsim.kernels.rigid_stick.switch`."""
+    raise NotImplementedError("a compiled kernel's function")
+
+
+@overload(switch, inline="always")
+def _switch_of(j, t, x, pt, tally, w):
+    if _rigid(pt):
+        def impl(j, t, x, pt, tally, w):
+            rigid_stick.switch(j, t, x, pt, tally, w)
+    else:
+        def impl(j, t, x, pt, tally, w):
+            s = 0.0
+            for k in range(x.q.shape[0]):
+                s += pt.S[j, k] * x.q[k]
+            common.apply_switch(j, t, s, x, pt, tally)
+    return impl
+
+
+def project_velocity(v, mode, pt):
+    """Make ``v`` respect the stuck set (compiled kernels only): the rigid stick's
+    :func:`beamsim.kernels.rigid_stick.project_velocity`; nothing for a Jenkins point."""
+    raise NotImplementedError("a compiled kernel's function")
+
+
+@overload(project_velocity, inline="always")
+def _project_velocity_of(v, mode, pt):
+    if _rigid(pt):
+        def impl(v, mode, pt):
+            rigid_stick.project_velocity(v, mode, pt)
+    else:
+        def impl(v, mode, pt):
+            pass
+    return impl
+
+
+@njit(cache=True, inline="always")
+def _jenkins_first_event(t0, t1, x, w, pt):
     """Earliest stick/slip switch of the Jenkins elements inside a step from ``(t0, x)`` to
     ``(t1, w.qn, w.vn, w.zn)``: the event functions ``g = |k_t (s - z)| - tau_s`` (stuck) and
     ``g = -mode s'`` (slipping) are interpolated linearly between the step ends (the rigid
     stick: :func:`beamsim.kernels.rigid_stick.first_event`).  Returns ``(theta, j)``, the step
     fraction and the element, or ``(2.0, -1)`` if none switches."""
-    if pt.law == rigid_stick.RIGID_STICK:
-        return rigid_stick.first_event(t0, t1, x, w, pt)
     q, v, z, mode, S, kt, tau_s = x.q, x.v, x.z, x.mode, pt.S, pt.kt, pt.tau_s
     n = q.shape[0]
     nq = z.shape[0]
@@ -220,12 +312,27 @@ def first_event(t0, t1, x, w, pt):
     return best, jb
 
 
-@njit(**LEAF)
 def event_g(j, t, q, v, z, mode, pt, w):
     """Event function of element ``j`` at ``(t, q, v, z)`` (> 0: its stick/slip state is
-    violated); ``w``: scratch of the rigid stick's tractions."""
-    if pt.law == rigid_stick.RIGID_STICK:
-        return rigid_stick.event_value(j, t, q, v, z, mode, pt, w)
+    violated; compiled kernels only): :func:`_jenkins_event_g` or
+    :func:`beamsim.kernels.rigid_stick.event_value` (``w``: scratch of its tractions)."""
+    raise NotImplementedError("a compiled kernel's function")
+
+
+@overload(event_g, inline="always")
+def _event_g_of(j, t, q, v, z, mode, pt, w):
+    if _rigid(pt):
+        def impl(j, t, q, v, z, mode, pt, w):
+            return rigid_stick.event_value(j, t, q, v, z, mode, pt, w)
+    else:
+        def impl(j, t, q, v, z, mode, pt, w):
+            return _jenkins_event_g(j, q, v, z, mode, pt)
+    return impl
+
+
+@njit(**LEAF)
+def _jenkins_event_g(j, q, v, z, mode, pt):
+    """Event function of a Jenkins element (> 0: its stick/slip state is violated)."""
     a = 0.0
     S = pt.S
     if mode[j] == 0:
@@ -346,13 +453,7 @@ def located_step(t, hs, h_tol, x, pt, tally, w, cp, seg, record):
             hs_acc = 0.0
         tl += hs_acc
         rem -= hs_acc
-        if pt.law == rigid_stick.RIGID_STICK:
-            rigid_stick.switch(j, tl, x, pt, tally, w)
-        else:
-            s = 0.0
-            for k in range(x.q.shape[0]):
-                s += pt.S[j, k] * x.q[k]
-            common.apply_switch(j, tl, s, x, pt, tally)
+        switch(j, tl, x, pt, tally, w)
         n_switch += 1
         if rem <= 1e-12 * h_tol:
             break
@@ -364,12 +465,9 @@ def located_step(t, hs, h_tol, x, pt, tally, w, cp, seg, record):
 @njit(cache=True)
 def rk4_point(p, pt, sched, x0, out):
     """Integrate point ``p`` (the step contract of :mod:`beamsim.kernels`)."""
-    if pt.law == rigid_stick.RIGID_STICK:
-        pt = rigid_stick.with_cache(pt)
     x, tally, _ = common.start_point(p, x0, pt, sched, out)
-    if pt.law == rigid_stick.RIGID_STICK:
-        # a given initial velocity need not respect the stuck set's constraint
-        rigid_stick.project_velocity(x.v, x.mode, pt)
+    # a given initial velocity need not respect a rigid stuck set's constraint
+    project_velocity(x.v, x.mode, pt)
     n = pt.Aq.shape[0]
     nq = pt.S.shape[0]
     w = new_stages(n, nq)
@@ -394,8 +492,19 @@ def rk4_point(p, pt, sched, x0, out):
 
 
 @njit(cache=True, parallel=True)
-def run_batch(stk, steps, out):
-    """RK4 over the points of a batch (:data:`~beamsim.kernels.bundles.PointStack`): the
-    structural damping as a matrix, the interface dashpot inside the interface traction."""
-    for p in prange(stk.f0.shape[0]):
+def run_batch(stk, steps, out, idx):
+    """RK4 over the points ``idx`` of a batch (:data:`~beamsim.kernels.bundles.PointStack`;
+    Jenkins or regularised laws): the structural damping as a matrix, the interface dashpot
+    inside the interface traction."""
+    for k in prange(idx.shape[0]):
+        p = idx[k]
         rk4_point(p, point_at(stk, p, True), schedule_at(steps, p), stk.x0[p], out)
+
+
+@njit(cache=True, parallel=True)
+def run_batch_rigid(stk, steps, out, idx):
+    """:func:`run_batch` for rigid-stick points (a kernel of its own: compiled only when used)."""
+    for k in prange(idx.shape[0]):
+        p = idx[k]
+        rk4_point(p, rigid_stick.with_cache(point_at(stk, p, True)), schedule_at(steps, p),
+                  stk.x0[p], out)

@@ -157,3 +157,9 @@ def test_rigid_stick_frequency_unit_is_the_rigidly_bonded_beam():
     pp = prepare_point(law="rigid-stick", n_modes=2, Omega=1.0)
     assert math.isclose(pp.omega, pp.model.omega1_bonded_rigid, rel_tol=1e-12)
     assert math.isclose(pp.Omega, 1.0, rel_tol=1e-12)
+
+
+def test_rigid_stick_pattern_keys_limit_the_interface_points():
+    with pytest.raises(ValueError, match="n_quad <= 62"):
+        simulate(law="rigid-stick", n_modes=1, n_quad=63, n_transient=0, n_record=1,
+                 method="rk4")
