@@ -43,6 +43,7 @@ def test_bonded_frequency_and_slip_onset_are_the_penalty_limit():
     assert errs_w[-1] < 1e-6 and errs_f[-1] < 1e-4
 
 
+@pytest.mark.slow  # compiles the rigid stick's kernel (about 70 s on a fresh clone): run early
 def test_penalty_trajectories_converge_to_the_rigid_stick():
     """Stick-slip through several switches per period (two modes, mu_s = mu_k, 3 periods from
     rest, the same omega and f0): the penalty model's Poincare states approach the rigid
