@@ -174,7 +174,9 @@ def _invert_spd(a, inv, r):
 
 @njit(**LEAF)
 def _fill(slot, key, rc, pt):
-    """Decompose the stick pattern ``key`` into cache slot ``slot`` (``F_A``, ``E_A``)."""
+    """Decompose the stick pattern ``key`` into cache slot ``slot``: ``F_A``, ``E_A``, the
+    redundant sliding elements (``red``) with their elastic slip-rate rows ``R``, and the
+    velocity projection ``Pv``."""
     nq = pt.S.shape[0]
     n = pt.S.shape[1]
     wq = pt.wq
