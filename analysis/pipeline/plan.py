@@ -28,6 +28,7 @@ from analysis.pipeline.validation import (
     validate_grid_points,
     validate_grid_values,
     validate_integrators,
+    validate_lyapunov_laws,
     validate_model,
 )
 
@@ -101,6 +102,7 @@ def build_plan(config: dict, schemas: Path) -> Plan:
     chunks = {name: chunk_points(pts, numerics.chunk_size) for name, pts in points.items()}
     lines = _expand_lines(grids["grids"], config["model"], result_numerics, model_schema, grid_file)
     methods = sorted({integrator(numerics.method, p.params) for pts in points.values() for p in pts})
+    validate_lyapunov_laws(points, grid_file)
     validate_integrators(points, numerics.method, grid_file)
     try:
         convergence = ConvergenceSettings.from_dict(config.get("convergence"))

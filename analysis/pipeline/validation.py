@@ -13,7 +13,7 @@ from snakemake.exceptions import WorkflowError
 from snakemake.utils import validate
 
 __all__ = ["allowed", "load_yaml_mapping", "validate_config", "validate_grid_points", "validate_grid_values",
-           "validate_integrators", "validate_model"]
+           "validate_integrators", "validate_lyapunov_laws", "validate_model"]
 
 
 def allowed(schema: dict) -> str:
@@ -172,26 +172,34 @@ def validate_grid_points(points: dict, grids: dict, grid_file: str) -> None:
                                     f"[{grid_file}]") from None
 
 
-def validate_integrators(points: dict, method: str, grid_file: str) -> None:
-    """The reference runs' integrator (``numerics.method``, ``auto`` resolved per point) must
-    support every point's friction law (``expo`` and ``newmark``: stick-slip only), and the
-    Lyapunov stage needs an exponent that exists: the rigid stick with ``mu_s > mu_k`` has none
-    (its break-away cascades make the flow non-Lipschitz; Benettin's estimate grows as the
-    initial separation shrinks, docs/lyapunov.md section 11), so a map of it is refused."""
-    from analysis.pipeline.stages import integrator
-    from beamsim.point import check_method_law
+def validate_lyapunov_laws(points: dict, grid_file: str) -> None:
+    """Every point's largest Lyapunov exponent must exist: the rigid stick with ``mu_s > mu_k``
+    has none (Benettin's estimate grows as the initial separation shrinks, docs/lyapunov.md
+    section 11), so a map of it is refused."""
+    from beamsim.friction import Friction
 
     for name, pts in points.items():
         for p in pts:
-            mu_s = p.params.get("mu_s", 0.3)
+            if p.params.get("law") != "rigid-stick":
+                continue
+            mu_s = p.params.get("mu_s", Friction.mu_s)
             mu_k = p.params.get("mu_k")
-            if (p.params.get("law") == "rigid-stick" and mu_k is not None
-                    and float(mu_s) > float(mu_k)):
+            if mu_k is not None and float(mu_s) > float(mu_k):
                 raise WorkflowError(
                     f"invalid config: grids.{name}: law = 'rigid-stick' with mu_s = {mu_s} > "
                     f"mu_k = {mu_k}: the largest Lyapunov exponent of the rigid stick with a "
                     "break-away drop is not defined (docs/lyapunov.md section 11); allowed: "
                     f"mu_k = mu_s with rigid-stick, or law: stick-slip [{grid_file}]")
+
+
+def validate_integrators(points: dict, method: str, grid_file: str) -> None:
+    """The reference runs' integrator (``numerics.method``, ``auto`` resolved per point) must
+    support every point's friction law (``expo`` and ``newmark``: stick-slip only)."""
+    from analysis.pipeline.stages import integrator
+    from beamsim.point import check_method_law
+
+    for name, pts in points.items():
+        for p in pts:
             try:
                 check_method_law(integrator(method, p.params), p.params.get("law", "stick-slip"))
             except ValueError as exc:
