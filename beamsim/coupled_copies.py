@@ -50,6 +50,7 @@ import numpy as np
 
 from beamsim.friction import RIGID_STICK
 from beamsim.kernels import copies
+from beamsim.kernels.thread_pool import run_items
 from beamsim.point import period_steps, stack_points
 from beamsim.two_layer import check_int, check_positive
 
@@ -119,20 +120,12 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
              for chunk in np.array_split(np.arange(M), split) if chunk.size]
     log_err = np.full((P, M, n_periods + 1), np.nan)
     final = np.full((P, M + 1, 2 * n + 2 * nq), np.nan)
-    old = numba.get_num_threads()
-    if n_threads is not None:
-        numba.set_num_threads(threads)
-    try:
-        all_tasks = np.array(tasks, np.int64).reshape(-1, 3)
-        rigid = stk.law[all_tasks[:, 0]] == RIGID_STICK
-        # the rigid stick's kernel is its own (compiled only when a rigid point is run)
-        for kernel, sel in ((copies.run_tasks, ~rigid), (copies.run_tasks_rigid, rigid)):
-            if sel.any():
-                kernel(np.ascontiguousarray(all_tasks[sel]), stk,
-                       copies.CopySchedule(h, n_per, n_periods, stk.divl), x_start,
-                       copies.CopySpec(offsets, d, renorm_period, inv_scale),
-                       copies.Band(e0, e0 * band[0], e0 * band[1]), log_err, final)
-    finally:
-        if n_threads is not None:
-            numba.set_num_threads(old)
+    all_tasks = np.array(tasks, np.int64).reshape(-1, 3)
+    rigid = stk.law[all_tasks[:, 0]] == RIGID_STICK
+    args = (all_tasks, stk, copies.CopySchedule(h, n_per, n_periods, stk.divl), x_start,
+            copies.CopySpec(offsets, d, renorm_period, inv_scale),
+            copies.Band(e0, e0 * band[0], e0 * band[1]), log_err, final)
+    # the rigid stick's kernel is its own (compiled only when a rigid point is run)
+    for kernel, sel in ((copies.run_task, ~rigid), (copies.run_task_rigid, rigid)):
+        run_items(kernel, args, np.flatnonzero(sel), threads)
     return (log_err, final) if return_final else log_err

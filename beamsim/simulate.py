@@ -37,6 +37,7 @@ import numpy as np
 from beamsim.friction import RIGID_STICK
 from beamsim.kernels import expo, newmark, rk4
 from beamsim.kernels.bundles import Outputs, Schedule
+from beamsim.kernels.thread_pool import run_items
 from beamsim.point import (
     METHOD_LAWS,
     PreparedPoint,
@@ -54,27 +55,27 @@ __all__ = ["simulate", "simulate_batch", "SimResult", "BatchResult", "prepare_po
 
 @dataclass(frozen=True)
 class Method:
-    """An integrator of the method table: its batch kernel ``run(stack, schedule, options,
-    outputs)`` and the friction laws it supports (``None``: all)."""
+    """An integrator of the method table: its batch runner ``run(stack, schedule, options,
+    outputs, threads)`` and the friction laws it supports (``None``: all)."""
 
     run: Callable
     laws: tuple | None = None
 
 
-def _run_rk4(stk, sched, opts, out):
+def _run_rk4(stk, sched, opts, out, threads):
     # the rigid stick's kernel is its own (compiled only when a rigid point is run)
     rigid = stk.law == RIGID_STICK
-    for kernel, sel in ((rk4.run_batch, ~rigid), (rk4.run_batch_rigid, rigid)):
-        if sel.any():
-            kernel(stk, sched, out, np.flatnonzero(sel))
+    for kernel, sel in ((rk4.run_point, ~rigid), (rk4.run_point_rigid, rigid)):
+        run_items(kernel, (stk, sched, out), np.flatnonzero(sel), threads)
 
 
-def _run_expo(stk, sched, opts, out):
-    expo.run_batch(stk, sched, opts["event_checks"], opts["pattern_cache"], out)
+def _run_expo(stk, sched, opts, out, threads):
+    run_items(expo.run_point, (stk, sched, opts["event_checks"], opts["pattern_cache"], out),
+              range(stk.f0.shape[0]), threads)
 
 
-def _run_newmark(stk, sched, opts, out):
-    newmark.run_batch(stk, sched, out)
+def _run_newmark(stk, sched, opts, out, threads):
+    run_items(newmark.run_point, (stk, sched, out), range(stk.f0.shape[0]), threads)
 
 
 #: the method table: name -> :class:`Method`
@@ -207,15 +208,9 @@ def simulate_batch(points, *, n_transient: int = 50, n_record: int = 50,
                       stk.divl)
     n_dense = int(((n_trans + n_rec) * dpp) + 1) if dpp > 0 else 1
     out = _outputs(len(prepared), n, nq, n_rec, n_dense, dense_full)
-    old_threads = numba.get_num_threads()
-    if n_threads is not None:
-        numba.set_num_threads(check_int("n_threads", n_threads, 1))
+    threads = numba.get_num_threads() if n_threads is None else check_int("n_threads", n_threads, 1)
     t0 = time.perf_counter()
-    try:
-        METHODS[method].run(stk, sched, opts, out)
-    finally:
-        if n_threads is not None:
-            numba.set_num_threads(old_threads)
+    METHODS[method].run(stk, sched, opts, out, threads)
     wall = time.perf_counter() - t0
     results = [_result(i, pp, method, sched, out, dpp) for i, pp in enumerate(prepared)]
     return BatchResult(points=points, results=results, wall_time=wall)

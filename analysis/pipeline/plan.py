@@ -48,6 +48,8 @@ class Plan:
     config_hash : 16 hex digits of ``table_config`` and ``grids``.
     points : grid name -> its points in axis order; chunks : grid name -> its chunks.
     simulation_methods : integrators of the reference runs.
+    rigid_stick : whether a grid or a line has rigid-stick points (whose kernels are their own,
+    so compile_kernels builds them too).
     convergence : the convergence runs' settings (sample size, seed, refinements).
     multistability : the settings of the runs of a map's cells from other starts.
     lines : grid name -> line name -> the line's points in axis order (continuation sweeps).
@@ -61,6 +63,7 @@ class Plan:
     points: dict[str, list[GridPoint]]
     chunks: dict[str, list[list[GridPoint]]]
     simulation_methods: list[str]
+    rigid_stick: bool
     convergence: ConvergenceSettings
     multistability: MultistabilitySettings
     lines: dict[str, dict[str, list[GridPoint]]]
@@ -102,6 +105,8 @@ def build_plan(config: dict, schemas: Path) -> Plan:
     chunks = {name: chunk_points(pts, numerics.chunk_size) for name, pts in points.items()}
     lines = _expand_lines(grids["grids"], config["model"], result_numerics, model_schema, grid_file)
     methods = sorted({integrator(numerics.method, p.params) for pts in points.values() for p in pts})
+    rigid = any(p.params.get("law") == "rigid-stick" for group in (points, *lines.values())
+                for pts in group.values() for p in pts)
     validate_lyapunov_laws(points, grid_file)
     validate_integrators(points, numerics.method, grid_file)
     try:
@@ -114,7 +119,7 @@ def build_plan(config: dict, schemas: Path) -> Plan:
     except ValueError as exc:
         raise WorkflowError(f"invalid config: {exc}") from None
     return Plan(grids, numerics, result_numerics, table_config, config_hash, points, chunks,
-                methods, convergence, multistability, lines)
+                methods, rigid, convergence, multistability, lines)
 
 
 def _expand_lines(grids: dict, model: dict, result_numerics: dict, model_schema: dict,

@@ -47,30 +47,39 @@ def _cached_stage(points: Sequence[dict], store: PointStore, compute: Callable[[
 
 
 # ----------------------------------------------------------------------------- kernels
-def compile_kernels(stage: str, methods: Sequence[str] = ("expo",), threads: int = 1) -> float:
+def compile_kernels(stage: str, methods: Sequence[str] = ("expo",), threads: int = 1,
+                    rigid: bool = False) -> float:
     """Compile (or load from numba's on-disk cache) the kernels of one pipeline stage by running
     them once on a one-mode point for a few forcing periods: ``"simulate"`` compiles the reference
     integrators in ``methods``, ``"lyapunov"`` the drive/copy kernel
-    (:func:`beamsim.coupled_copies.run_copies`).  Compilation is single-threaded (its time on a
-    fresh install: docs/pipeline.md); as separate one-thread jobs the two stages compile side by
-    side instead of each delaying its first chunk.  Returns the wall time [s]."""
+    (:func:`beamsim.coupled_copies.run_copies`); with ``rigid`` also the rigid stick's kernels
+    (RK4 and copies).  Compilation is single-threaded (its time on a fresh install:
+    docs/pipeline.md); as separate one-thread jobs the two stages compile side by side instead
+    of each delaying its first chunk.  The chunk jobs then load every kernel from the cache, so
+    none of them runs a kernel compiled in its own process (whose results can differ from the
+    cached kernel's in the last bits: docs/reliability.md).  Returns the wall time [s]."""
     from beamsim.simulate import prepare_point, simulate_batch
 
     t0 = time.perf_counter()
     point = {"n_modes": 1, "Omega": 2.5, "f0_rel": 2.0, "mu_s": 0.45, "mu_k": 0.3}
-    if stage == "simulate":
-        for method in methods:
-            simulate_batch([point], n_transient=0, n_record=1, method=method, n_threads=threads)
-    elif stage == "lyapunov":
-        from analysis.lyapunov.beam import attractor_scale, beam_lle, response_scale
+    runs = [(point, methods)]
+    if rigid:
+        runs.append((point | {"law": "rigid-stick", "mu_s": 0.3}, ("rk4",)))
+    for pt, meths in runs:
+        if stage == "simulate":
+            for method in meths:
+                simulate_batch([pt], n_transient=0, n_record=1, method=method, n_threads=threads)
+        elif stage == "lyapunov":
+            from analysis.lyapunov.beam import attractor_scale, beam_lle, response_scale
 
-        pp = prepare_point(**point)
-        n, nq = pp.model.n, pp.model.n_quad
-        start = np.zeros((1, 2 * n + 2 * nq))  # at rest, every element stuck
-        scale = attractor_scale(np.zeros((2, 2 * n)), response_scale(pp), pp.omega)  # forced-response scale
-        beam_lle([pp], start, scale[None], n_periods=4, n_threads=threads)
-    else:
-        raise ValueError(f"stage must be 'simulate' or 'lyapunov', got {stage!r}")
+            pp = prepare_point(**pt)
+            n, nq = pp.model.n, pp.model.n_quad
+            start = np.zeros((1, 2 * n + 2 * nq))  # at rest, every element stuck
+            # the forced response's scale
+            scale = attractor_scale(np.zeros((2, 2 * n)), response_scale(pp), pp.omega)
+            beam_lle([pp], start, scale[None], n_periods=4, n_threads=threads)
+        else:
+            raise ValueError(f"stage must be 'simulate' or 'lyapunov', got {stage!r}")
     return time.perf_counter() - t0
 
 

@@ -12,7 +12,8 @@ thin public entry in :mod:`beamsim.simulate` that dispatches by a table):
 * :mod:`beamsim.kernels.expo` -- exact piecewise-linear propagation between located switches;
 * :mod:`beamsim.kernels.newmark` -- implicit average-acceleration Newmark with an implicit
   return mapping;
-* :mod:`beamsim.kernels.copies` -- a drive and perturbed / coupled copies (Lyapunov estimates).
+* :mod:`beamsim.kernels.copies` -- a drive and perturbed / coupled copies (Lyapunov estimates);
+* :mod:`beamsim.kernels.thread_pool` -- a batch's items on a pool of threads.
 
 Arguments travel as named bundles (:mod:`beamsim.kernels.bundles`): ``Point`` (the constant
 inputs of one parameter point), ``Schedule`` (step, steps per period, periods, output and
@@ -37,9 +38,11 @@ A point kernel ``_<name>_point(p, pt, sched, x0, out, ...)`` integrates point ``
    record at period ends, dense output), stopping the point when the latter returns True;
 4. finish with :func:`beamsim.kernels.common.final_flags` (slip indicators, final state).
 
-A batch kernel runs the point kernel over ``prange`` of the points; each point's arithmetic is
-independent of the others, so results do not depend on the number of threads.  To add an
-integrator: write its module here, add its batch kernel to the method table of
+An item kernel ``run_point(..., p)`` (``nogil``) runs the point kernel on point ``p`` of a
+batch, and :func:`beamsim.kernels.thread_pool.run_items` hands the points to a pool of
+threads; each point's arithmetic is independent of the others, so results do not depend on the
+number of threads.  To add an integrator: write its module here, add its batch runner to the
+method table of
 :mod:`beamsim.simulate` (``METHODS``), give its default steps per period in
 :func:`beamsim.point.period_steps`, and test it against the RK4 reference (tests/beamsim).
 """

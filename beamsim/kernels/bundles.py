@@ -1,10 +1,7 @@
 """Named argument bundles of the compiled kernels (numba passes named tuples as structs).
 
 Every array of a ``*Stack`` bundle has a leading point axis; :func:`point_at` and
-:func:`schedule_at` cut one point's view out of it inside a batch kernel.
-
-Inside a ``parallel=True`` kernel no variable may be called ``sched``: numba's generated
-parallel loop has a parameter of that name, and a variable of ours would shadow it.
+:func:`schedule_at` cut one point's view out of it inside an item kernel.
 """
 
 from __future__ import annotations

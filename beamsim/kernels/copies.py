@@ -10,7 +10,7 @@ import math
 from collections import namedtuple
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from beamsim.kernels import common, rigid_stick, rk4
 from beamsim.kernels.bundles import LEAF, State, Tally, point_at
@@ -273,24 +273,24 @@ def copies_task(p, c0, c1, pt, sch, x_start, spec, band, log_err, final):
             dst[2 * n + nq + j] = rows.MODE[r, j]
 
 
-@njit(cache=True, parallel=True)
-def run_tasks(tasks, stk, sch, x_start, spec, band, log_err, final):
-    """Every task ``(point, first copy, end copy)`` of ``tasks`` (an ``(T, 3)`` int array) in
-    parallel; ``stk``, ``sch`` and ``spec`` stacked over the points."""
-    for k in prange(tasks.shape[0]):
-        p = tasks[k, 0]
-        copies_task(p, tasks[k, 1], tasks[k, 2], point_at(stk, p, True),
-                    CopySchedule(sch.h[p], sch.n_per[p], sch.n_periods, sch.div_limit[p]),
-                    x_start[p], CopySpec(spec.offsets[p], spec.d[p], spec.renorm_period[p],
-                                         spec.inv_scale[p]), band, log_err, final)
+@njit(cache=True, nogil=True)
+def run_task(tasks, stk, sch, x_start, spec, band, log_err, final, k):
+    """Task ``k`` ``(point, first copy, end copy)`` of ``tasks`` (an ``(T, 3)`` int array; an
+    item of :func:`beamsim.kernels.thread_pool.run_items`); ``stk``, ``sch`` and ``spec``
+    stacked over the points."""
+    p = tasks[k, 0]
+    copies_task(p, tasks[k, 1], tasks[k, 2], point_at(stk, p, True),
+                CopySchedule(sch.h[p], sch.n_per[p], sch.n_periods, sch.div_limit[p]),
+                x_start[p], CopySpec(spec.offsets[p], spec.d[p], spec.renorm_period[p],
+                                     spec.inv_scale[p]), band, log_err, final)
 
 
-@njit(cache=True, parallel=True)
-def run_tasks_rigid(tasks, stk, sch, x_start, spec, band, log_err, final):
-    """:func:`run_tasks` for rigid-stick points (a kernel of its own: compiled only when used)."""
-    for k in prange(tasks.shape[0]):
-        p = tasks[k, 0]
-        copies_task(p, tasks[k, 1], tasks[k, 2], rigid_stick.with_cache(point_at(stk, p, True)),
-                    CopySchedule(sch.h[p], sch.n_per[p], sch.n_periods, sch.div_limit[p]),
-                    x_start[p], CopySpec(spec.offsets[p], spec.d[p], spec.renorm_period[p],
-                                         spec.inv_scale[p]), band, log_err, final)
+@njit(cache=True, nogil=True)
+def run_task_rigid(tasks, stk, sch, x_start, spec, band, log_err, final, k):
+    """:func:`run_task` for a rigid-stick point (a kernel of its own: compiled only when
+    used)."""
+    p = tasks[k, 0]
+    copies_task(p, tasks[k, 1], tasks[k, 2], rigid_stick.with_cache(point_at(stk, p, True)),
+                CopySchedule(sch.h[p], sch.n_per[p], sch.n_periods, sch.div_limit[p]),
+                x_start[p], CopySpec(spec.offsets[p], spec.d[p], spec.renorm_period[p],
+                                     spec.inv_scale[p]), band, log_err, final)

@@ -25,7 +25,7 @@ import math
 from collections import namedtuple
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from beamsim.kernels import common
 from beamsim.kernels.bundles import LEAF, point_at, schedule_at
@@ -647,9 +647,9 @@ def expo_point(p, pt, sched, x0, n_sub, cache_size, out):
     out.flags[p, FLAG_N_CHECKS] = wk.cnt[_N_CHECKS]
 
 
-@njit(cache=True, parallel=True)
-def run_batch(stk, steps, n_sub, cache_size, out):
-    """expo over the points of a batch (full damping matrix)."""
-    for p in prange(stk.f0.shape[0]):
-        expo_point(p, point_at(stk, p, False), schedule_at(steps, p), stk.x0[p], n_sub,
-                   cache_size, out)
+@njit(cache=True, nogil=True)
+def run_point(stk, steps, n_sub, cache_size, out, p):
+    """expo on point ``p`` of a batch (full damping matrix; an item of
+    :func:`beamsim.kernels.thread_pool.run_items`)."""
+    expo_point(p, point_at(stk, p, False), schedule_at(steps, p), stk.x0[p], n_sub,
+               cache_size, out)

@@ -12,7 +12,7 @@ import math
 from collections import namedtuple
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from beamsim.kernels import common
 from beamsim.kernels.bundles import point_at, schedule_at
@@ -202,8 +202,8 @@ def newmark_point(p, pt, sched, x0, out):
     common.final_flags(p, tally.stats, out, x)
 
 
-@njit(cache=True, parallel=True)
-def run_batch(stk, steps, out):
-    """Newmark over the points of a batch (full damping matrix)."""
-    for p in prange(stk.f0.shape[0]):
-        newmark_point(p, point_at(stk, p, False), schedule_at(steps, p), stk.x0[p], out)
+@njit(cache=True, nogil=True)
+def run_point(stk, steps, out, p):
+    """Newmark on point ``p`` of a batch (full damping matrix; an item of
+    :func:`beamsim.kernels.thread_pool.run_items`)."""
+    newmark_point(p, point_at(stk, p, False), schedule_at(steps, p), stk.x0[p], out)

@@ -17,7 +17,7 @@ import math
 from collections import namedtuple
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 from numba.extending import overload
 
 from beamsim.friction import smooth_traction
@@ -491,20 +491,17 @@ def rk4_point(p, pt, sched, x0, out):
     out.flags[p, FLAG_N_EVENTS] = n_switch
 
 
-@njit(cache=True, parallel=True)
-def run_batch(stk, steps, out, idx):
-    """RK4 over the points ``idx`` of a batch (:data:`~beamsim.kernels.bundles.PointStack`;
-    Jenkins or regularised laws): the structural damping as a matrix, the interface dashpot
-    inside the interface traction."""
-    for k in prange(idx.shape[0]):
-        p = idx[k]
-        rk4_point(p, point_at(stk, p, True), schedule_at(steps, p), stk.x0[p], out)
+@njit(cache=True, nogil=True)
+def run_point(stk, steps, out, p):
+    """RK4 on point ``p`` of a batch (:data:`~beamsim.kernels.bundles.PointStack`; Jenkins or
+    regularised laws; an item of :func:`beamsim.kernels.thread_pool.run_items`): the structural
+    damping as a matrix, the interface dashpot inside the interface traction."""
+    rk4_point(p, point_at(stk, p, True), schedule_at(steps, p), stk.x0[p], out)
 
 
-@njit(cache=True, parallel=True)
-def run_batch_rigid(stk, steps, out, idx):
-    """:func:`run_batch` for rigid-stick points (a kernel of its own: compiled only when used)."""
-    for k in prange(idx.shape[0]):
-        p = idx[k]
-        rk4_point(p, rigid_stick.with_cache(point_at(stk, p, True)), schedule_at(steps, p),
-                  stk.x0[p], out)
+@njit(cache=True, nogil=True)
+def run_point_rigid(stk, steps, out, p):
+    """:func:`run_point` for a rigid-stick point (a kernel of its own: compiled only when
+    used)."""
+    rk4_point(p, rigid_stick.with_cache(point_at(stk, p, True)), schedule_at(steps, p),
+              stk.x0[p], out)

@@ -182,6 +182,11 @@ def test_rigid_stick_plans_with_rk4(tmp_path):
     cfg["convergence"] = {"sample": 4, "refinements": ["step", "windows", "modes"]}
     plan = build_plan(cfg, SCHEMA.parent)
     assert plan.simulation_methods == ["rk4"]
+    # compile_kernels builds the rigid stick's own kernels, so no chunk job compiles them
+    assert plan.rigid_stick
+    cfg = _config()
+    cfg["grid_file"] = str(ROOT / "config" / "grid.yaml")
+    assert not build_plan(cfg, SCHEMA.parent).rigid_stick
 
 
 def test_a_rigid_stick_map_with_a_breakaway_drop_is_refused():

@@ -3,6 +3,7 @@ rule compile_kernels:
         stamp="results/kernels/{stage}.done",
     params:
         methods=SIMULATION_METHODS,
+        rigid=PLAN.rigid_stick,
     threads: 1
     log:
         "logs/kernels/{stage}.log",

@@ -1,0 +1,30 @@
+"""The pool that runs a batch's items (points, shares of copies) on threads."""
+
+import threading
+
+import pytest
+
+from beamsim.kernels.thread_pool import run_items
+
+
+@pytest.mark.parametrize("threads", [1, 2, 5])
+def test_every_item_runs_once(threads):
+    seen, lock = [], threading.Lock()
+
+    def kernel(tag, i):
+        with lock:
+            seen.append((tag, i))
+
+    run_items(kernel, ("x",), [4, 1, 7, 2], threads)
+    assert sorted(seen) == [("x", 1), ("x", 2), ("x", 4), ("x", 7)]
+    run_items(kernel, ("y",), [], threads)
+    assert len(seen) == 4
+
+
+def test_an_item_that_raises_is_raised_by_the_call():
+    def kernel(i):
+        if i == 3:
+            raise FloatingPointError("item 3")
+
+    with pytest.raises(FloatingPointError, match="item 3"):
+        run_items(kernel, (), range(6), 2)
