@@ -149,6 +149,40 @@ def test_redundant_interface_points_do_not_chatter():
     assert _rel(a.poincare_state, b.poincare_state) < 1e-6
 
 
+@pytest.mark.parametrize("omega,f0_rel", [(1.85, 2.0), (1.3, 1.5)])
+def test_rigid_stick_lyapunov_copies(omega, f0_rel):
+    """The Lyapunov stage's kernel with the rigid stick (:mod:`beamsim.coupled_copies`, which
+    the pipeline runs for a rigid-stick map): its drive follows the reference RK4 run (same
+    step; measured 2.9e-13 and 6.4e-14 of the state after 4 periods with the kernels loaded
+    from numba's cache, but 7.4e-7 at the first point when this process compiled them: a
+    difference between a kernel compiled in the process and the cached one, unexplained,
+    docs/reliability.md; so the bound is 1e-5, the size of one switch decided differently at
+    this step, far below what a wrong drive would give), and with one friction
+    coefficient its Benettin exponent is not positive beyond the pipeline's margin, 0.05 per
+    forcing period (measured -0.036 and 0.001): the rigid stick's friction law is monotone,
+    so two solutions never move apart (docs/lyapunov.md, section 8).  A copy given a wrong
+    constraint traction or a wrong switch separates from its drive: with ``mu_s > mu_k`` the
+    same estimate reads 2.5-9.8 per period (docs/lyapunov.md, section 11)."""
+    from analysis.lyapunov.beam import attractor_scale, beam_benettin, initial_offset, response_scale
+    from beamsim.coupled_copies import run_copies
+    from beamsim.simulate import restart_params
+
+    params = dict(TWO, law="rigid-stick", Omega=omega, f0_rel=f0_rel)
+    r = simulate(n_transient=0, n_record=8, method="rk4", **params)
+    pp = prepare_point(**params)
+    scale = attractor_scale(r.poincare_state, response_scale(pp), pp.omega)
+    off = initial_offset(pp, scale, 1e-6, 0)[None, None]
+    _, fin = run_copies([pp], r.final_state[None], off, np.zeros((1, 1)), 1 / scale[None],
+                        n_periods=4, e0=1e-6, renorm_period=np.ones((1, 1), np.bool_),
+                        return_final=True)
+    again = simulate(n_transient=0, n_record=4, method="rk4", **restart_params(r))
+    assert _rel(fin[0, 0], again.final_state) < 1e-5
+    lam_T = beam_benettin([pp], r.final_state[None], scale[None], n_periods=30)[0].value \
+        * 2 * math.pi / pp.omega
+    print(f"\nrigid stick, Omega {omega}, f0_rel {f0_rel}: Benettin lambda_1 T = {lam_T:.4f}")
+    assert lam_T <= 0.05
+
+
 @pytest.mark.parametrize("bad", [dict(method="expo"), dict(method="newmark")])
 def test_rigid_stick_needs_rk4(bad):
     with pytest.raises(ValueError, match="stick-slip"):
