@@ -2,7 +2,8 @@
 
 Modules: ``modes`` (in-plane arch modes).
 
-The project parallelises over parameter points (numba threads, Snakemake jobs); the
+The project parallelises over parameter points (threads running compiled kernels, Snakemake
+jobs); the
 linear algebra it does is on tiny matrices (6x6 to 100x100), where a multi-threaded BLAS
 only adds overhead and, worse, changes the last bits of LAPACK's results (an eigen-
 decomposition of ``expo`` split over two OpenBLAS threads rounds differently), which a
@@ -11,8 +12,8 @@ on the machine's thread settings, so every BLAS/LAPACK library of the process is
 one thread when beamsim is imported: the environment variables for libraries loaded later
 (``OPENBLAS_NUM_THREADS``, ``MKL_NUM_THREADS``, overriding any value: Snakemake sets them to a
 job's thread count), and :func:`threadpoolctl.threadpool_limits` for those already loaded.
-Parallelism comes from numba's threads over points, whose results do not depend on their
-number.
+Parallelism comes from threads over points (:mod:`beamsim.kernels.thread_pool`), whose results
+do not depend on their number.
 """
 
 import os as _os

@@ -180,7 +180,9 @@ def simulate_batch(points, *, n_transient: int = 50, n_record: int = 50,
         the largest of the frictionless static response to the peak load ``2 f0``, ``|q0|`` and
         ``|v0| / omega`` (the model is linear apart from friction, which only dissipates, so a
         growth by ``div_limit`` means a numerical instability).
-    n_threads : numba threads for this call (default: numba's current setting).
+    n_threads : threads running the points of this call (:func:`beamsim.kernels.thread_pool.run_items`;
+        default: numba's setting, ``numba.get_num_threads()``, which ``NUMBA_NUM_THREADS`` and
+        ``numba.set_num_threads`` set).
     """
     if hasattr(points, "to_dict"):
         points = points.to_dict("records")

@@ -5,8 +5,7 @@ The batch kernels of the integrators (:mod:`beamsim.kernels.rk4`, :mod:`~beamsim
 a point's share of Lyapunov copies) per call and release the GIL (``nogil=True``), so Python
 threads run them side by side.  They were ``parallel=True`` kernels over ``prange`` before;
 numba compiles such a loop into a module of its own that links and optimises the whole point
-kernel a second time, which cost 10-28 s of compilation per kernel on a fresh install
-(docs/architecture.md, "What the suite's time is made of").
+kernel a second time (measured: docs/performance.md, "Not done yet", compile time).
 
 Every item writes only its own rows of the output arrays, so the results do not depend on the
 number of threads or on which thread runs an item (bitwise).  Items are handed out one at a

@@ -28,3 +28,13 @@ def test_an_item_that_raises_is_raised_by_the_call():
 
     with pytest.raises(FloatingPointError, match="item 3"):
         run_items(kernel, (), range(6), 2)
+
+
+def test_the_item_kernels_release_the_gil():
+    """Without ``nogil`` the pool's threads would take turns: the batches would run on one
+    core whatever ``n_threads`` says (their results would not show it)."""
+    from beamsim.kernels import copies, expo, newmark, rk4
+
+    for kernel in (rk4.run_point, rk4.run_point_rigid, expo.run_point, newmark.run_point,
+                   copies.run_task, copies.run_task_rigid):
+        assert kernel.targetoptions.get("nogil") is True, kernel
