@@ -9,9 +9,9 @@ Python API (see docs/model.md, section "Simulator")::
     b = simulate_batch([dict(f0_rel=x, Omega=1.2) for x in (0.5, 1, 2, 4)], n_threads=2)
     b.summary()             # one row per point (pandas DataFrame)
 
-Integrators (:data:`METHODS`; numba kernels in :mod:`beamsim.kernels`, ``prange`` over the
-points of a batch; each point's arithmetic is independent of the others, so results do not
-depend on the number of threads):
+Integrators (:data:`METHODS`; numba kernels in :mod:`beamsim.kernels`, the points of a batch
+on a pool of threads, :mod:`beamsim.kernels.thread_pool`; each point's arithmetic is
+independent of the others, so results do not depend on the number of threads):
 
 * ``method="rk4"`` -- the reference: classical fixed-step RK4 with every stick/slip switch
   located inside its step (:mod:`beamsim.kernels.rk4`).  Default step
