@@ -49,9 +49,9 @@ import numba
 import numpy as np
 
 from beamsim.friction import RIGID_STICK
-from beamsim.kernels import copies
+from beamsim.kernels import copies, expo_copies
 from beamsim.kernels.thread_pool import run_items
-from beamsim.point import period_steps, stack_points
+from beamsim.point import check_method_law, period_steps, stack_points
 from beamsim.two_layer import check_int, check_positive
 
 __all__ = ["run_copies"]
@@ -62,7 +62,8 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
                renorm_period: np.ndarray | None = None, band: tuple[float, float] = (1e-4, 1e4),
                steps_per_period: int | None = None, step_factor: float = 0.5,
                n_threads: int | None = None, split: int | None = None,
-               div_limit: float = 1e6, return_final: bool = False):
+               div_limit: float = 1e6, return_final: bool = False, method: str = "rk4",
+               event_checks: int = 4, pattern_cache: int = 2048):
     """Integrate the drive and its copies for ``n_periods`` forcing periods (see the module
     docstring) and return ``ln eps`` of shape ``(P, M, n_periods + 1)`` at the period
     boundaries (``nan``: the drive diverged; ``+inf``: the copy did).
@@ -85,6 +86,13 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
         copies.  The drive does not depend on the copies, so results do not depend on
         ``split``, on which other copies run, or on the number of threads (bitwise).  Default:
         enough tasks to occupy the threads (``ceil(threads / P)``).
+    method : ``"rk4"`` (the reference: every copy on the drive's RK4 steps, couplings allowed)
+        or ``"expo"`` (:mod:`beamsim.kernels.expo_copies`: drive and copies each propagated
+        exactly between their own located switches; stick-slip law and free copies, ``d = 0``,
+        only).  With ``expo`` the copies are measured and rescaled at the ``expo`` output
+        grid's step ends (``steps_per_period``, default 64 per period) and ``step_factor`` is
+        not used; ``event_checks`` and ``pattern_cache`` are ``expo``'s
+        (:func:`beamsim.simulate.simulate_batch`).
     """
     P = len(prepared)
     x_start = np.ascontiguousarray(x_start, dtype=float)
@@ -107,11 +115,22 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
     if renorm_period is None:
         renorm_period = np.zeros((P, M), np.bool_)
     renorm_period = np.ascontiguousarray(renorm_period, dtype=np.bool_)
+    if method not in ("rk4", "expo"):
+        raise ValueError(f"method must be 'rk4' or 'expo', got {method!r}")
+    if method == "expo":
+        for pp in prepared:
+            check_method_law("expo", pp.friction.law)
+        if np.any(d != 0):
+            raise ValueError("method='expo' integrates free copies only (d = 0)")
+        event_checks = check_int("event_checks", event_checks, 1)
+        # at most ~100 MB of decompositions per task in flight (as simulate_batch)
+        pattern_cache = max(2, min(check_int("pattern_cache", pattern_cache, 1),
+                                   int(1e8 // (2 * (2 * n) ** 2 * 16 + 1))))
     stk = stack_points(prepared, div_limit)
     h = np.empty(P)
     n_per = np.empty(P, np.int64)
     for i, pp in enumerate(prepared):
-        n_per[i] = period_steps(pp, "rk4", steps_per_period, step_factor)
+        n_per[i] = period_steps(pp, method, steps_per_period, step_factor)
         h[i] = 2 * math.pi / pp.omega / n_per[i]
     threads = numba.get_num_threads() if n_threads is None else check_int("n_threads", n_threads, 1)
     split = -(-threads // P) if split is None else int(split)
@@ -122,9 +141,14 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
     final = np.full((P, M + 1, 2 * n + 2 * nq), np.nan)
     all_tasks = np.array(tasks, np.int64).reshape(-1, 3)
     rigid = stk.law[all_tasks[:, 0]] == RIGID_STICK
-    args = (all_tasks, stk, copies.CopySchedule(h, n_per, n_periods, stk.divl), x_start,
-            copies.CopySpec(offsets, d, renorm_period, inv_scale),
-            copies.Band(e0, e0 * band[0], e0 * band[1]), log_err, final)
+    bundles = (all_tasks, stk, copies.CopySchedule(h, n_per, n_periods, stk.divl), x_start,
+               copies.CopySpec(offsets, d, renorm_period, inv_scale),
+               copies.Band(e0, e0 * band[0], e0 * band[1]))
+    if method == "expo":
+        run_items(expo_copies.run_task, bundles + (event_checks, pattern_cache, log_err, final),
+                  range(len(tasks)), threads)
+        return (log_err, final) if return_final else log_err
+    args = bundles + (log_err, final)
     # the rigid stick's kernel is its own (compiled only when a rigid point is run)
     for kernel, sel in ((copies.run_task, ~rigid), (copies.run_task_rigid, rigid)):
         run_items(kernel, args, np.flatnonzero(sel), threads)

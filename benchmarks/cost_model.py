@@ -7,7 +7,10 @@ measured on the workload the pipeline ships: 8 points drawn (seed 0) from the de
 ``config/grid.yaml`` (its friction and axes; the mode count varied), run through the pipeline's
 stage functions (:func:`analysis.pipeline.stages.simulate_points`, :func:`lyapunov_points`) as
 one batch on one thread with the default numerics, after a warm-up that compiles the kernels.
-The coefficient is ``seconds / sum(periods / Omega)`` over the batch.  RK4 costs the same per
+The coefficient is ``seconds / sum(periods / Omega)`` over the batch, with the periods each
+point actually ran (the simulate stage's adaptive transients and continuation checks, the
+Lyapunov stage's Benettin records; the cost model adds the expected shares of those itself).
+The Lyapunov stage is measured with its free copy on ``expo`` and on RK4.  RK4 costs the same per
 step whatever the regime, so its coefficient comes from a short run (40 periods) of the same
 points.  Also measured: the store's bytes per point (the disk-space check before a run).
 
@@ -23,6 +26,8 @@ import argparse
 import sys
 import tempfile
 import time
+import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -53,19 +58,28 @@ def _bytes(folder: str) -> int:
 
 
 def run_batch(n_modes: int, nm: Numerics, lyapunov: bool) -> dict:
-    """Seconds of each stage for the sample (an empty store), ``sum(1 / Omega)``, store bytes."""
+    """Seconds of each stage for the sample (an empty store), the periods each simulated over
+    ``Omega`` (``sim_periods``: the adaptive transients and continuation checks included;
+    ``lyapunov_periods``, per free copy's integrator: the Benettin records' lengths), store
+    bytes."""
     params = sample_points(n_modes)
     pts = [{"point_id": point_id(p, nm.result_dict()), "params": p} for p in params]
-    out = {"inv_omega": sum(1.0 / p["Omega"] for p in params)}
+    out = {}
     with tempfile.TemporaryDirectory() as store:
         t0 = time.perf_counter()
         sim = simulate_points(pts, nm, store)
         out["simulate"] = time.perf_counter() - t0
+        out["sim_periods"] = float(((sim["n_transient_used"] + nm.n_record) / sim["Omega"]).sum())
         if lyapunov:
-            t0 = time.perf_counter()
-            lyapunov_points(pts, sim, nm, store)
-            out["lyapunov"] = time.perf_counter() - t0
-        out["bytes_per_point"] = _bytes(store) / len(pts)
+            out["lyapunov"], out["lyapunov_periods"] = {}, {}
+            for free in ("expo", "rk4"):
+                v = replace(nm, lyapunov=replace(nm.lyapunov, method=free))
+                t0 = time.perf_counter()
+                lya = lyapunov_points(pts, sim, v, f"{store}/{free}")
+                out["lyapunov"][free] = time.perf_counter() - t0
+                out["lyapunov_periods"][free] = float((lya["lle_periods"] / sim["Omega"]).sum())
+        out["bytes_per_point"] = (_bytes(store) - _bytes(f"{store}/rk4")) / len(pts) if lyapunov \
+            else _bytes(store) / len(pts)
     return out
 
 
@@ -74,34 +88,42 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--modes", type=int, nargs="*", default=[1, 2, 3])
     ap.add_argument("--write", action="store_true", help=f"update {COST_MODEL_FILE.name}")
     args = ap.parse_args(argv)
+    warnings.filterwarnings("ignore", category=RuntimeWarning, module="nolds")  # short series
 
     for stage in ("simulate", "lyapunov"):
         compile_kernels(stage, methods=("expo", "rk4"))
-    model: dict = {"simulate": {"expo": {}, "rk4": {}}, "lyapunov": {}, "bytes_per_point": {}}
-    print("| stage | method | n_modes | periods per point | seconds (8 points) "
+    model: dict = {"simulate": {"expo": {}, "rk4": {}}, "lyapunov": {"expo": {}, "rk4": {}},
+                   "bytes_per_point": {}}
+    print("| stage | method | n_modes | sum of periods / Omega | seconds (8 points) "
           "| c [s per period at Omega = 1] |")
     print("|---|---|---|---|---|---|")
     for n_modes in args.modes:
         default = Numerics(method="expo")
-        short = Numerics(method="rk4", n_transient=10, n_record=30)
+        # a fixed-length RK4 run: no adaptive transient, no continuation check (both need the
+        # classifier's 128 samples)
+        short = Numerics(method="rk4", n_transient=10, n_record=30, n_transient_max=10,
+                         continuation_check=False)
         for nm, lyap in ((default, True), (short, False)):
             secs = run_batch(n_modes, nm, lyap)
-            periods = nm.n_transient + nm.n_record
-            c = secs["simulate"] / (periods * secs["inv_omega"])
+            c = secs["simulate"] / secs["sim_periods"]
             model["simulate"][nm.method][n_modes] = round(c, 6)
-            print(f"| simulate | {nm.method} | {n_modes} | {periods} | {secs['simulate']:.1f} | {c:.5f} |",
-                  flush=True)
+            print(f"| simulate | {nm.method} | {n_modes} | {secs['sim_periods']:.0f} "
+                  f"| {secs['simulate']:.1f} | {c:.5f} |", flush=True)
             if lyap:
                 model["bytes_per_point"][n_modes] = int(secs["bytes_per_point"])
-                c = secs["lyapunov"] / (nm.lyapunov.n_periods * secs["inv_omega"])
-                model["lyapunov"][n_modes] = round(c, 6)
-                print(f"| lyapunov | rk4 copies | {n_modes} | {nm.lyapunov.n_periods} "
-                      f"| {secs['lyapunov']:.1f} | {c:.5f} |", flush=True)
+                # the free copy on expo (the default, auto) and on RK4, same simulated records
+                for free, t in secs["lyapunov"].items():
+                    c = t / secs["lyapunov_periods"][free]
+                    model["lyapunov"][free][n_modes] = round(c, 6)
+                    print(f"| lyapunov | {free} free copy | {n_modes} "
+                          f"| {secs['lyapunov_periods'][free]:.0f} | {t:.1f} | {c:.5f} |", flush=True)
     print(yaml.safe_dump(model, sort_keys=True))
     if args.write:
         header = ("# Seconds per forcing period and point at Omega = 1, one thread, compiled kernels\n"
                   "# (analysis.pipeline.cost).  Written by benchmarks/cost_model.py --write; do not\n"
-                  "# edit by hand.  lyapunov: per period of numerics.lyapunov.n_periods at step 0.5;\n"
+                  "# edit by hand.  Per period actually run (simulate: adaptive transients and\n"
+                  "# continuation checks included; lyapunov: the Benettin record, by the free copy's\n"
+                  "# integrator, rk4 at step 0.5, the Stefanski ladders included);\n"
                   "# bytes_per_point: the store's records of one point (both stages).\n")
         COST_MODEL_FILE.write_text(header + yaml.safe_dump(model, sort_keys=True))
         print(f"wrote {COST_MODEL_FILE}")

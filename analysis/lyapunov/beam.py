@@ -136,7 +136,9 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
              band: tuple[float, float] = (1e-2, 1e2), with_benettin: bool = True,
              zero_first: bool = True, seed_ladder: bool = True,
              steps_per_period: int | None = None, step_factor: float = 0.5,
-             n_threads: int | None = None, plan: BlockPlan | None = None) -> list[BeamLLE]:
+             n_threads: int | None = None, plan: BlockPlan | None = None,
+             free_method: str = "rk4", free_e0: float | None = None,
+             free_steps: int | None = None) -> list[BeamLLE]:
     """Stefanski and Benettin estimates of ``lambda_1`` for each point, and with ``plan`` the
     block statistics of a long Benettin record.
 
@@ -166,6 +168,15 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
         straddles the margin are continued one block at a time from the end states, up to
         ``plan.max_periods``.  Needs ``with_benettin``.  The continuation is exact (same steps as
         one long run), so the statistics do not depend on the batch.
+    free_method, free_e0, free_steps : integrator of the free copy (round 0 and the long record:
+        the Benettin values, the block statistics and Stefanski's ``d = 0`` test), its initial
+        separation (default ``e0``) and, for ``"expo"``, its steps per period (the grid at
+        which the copy is measured and renormalised; default 64).  ``"rk4"``: the RK4 pair of
+        the coupled copies; ``"expo"``: drive and copy each exact between their own located
+        switches (:mod:`beamsim.kernels.expo_copies`; stick-slip law; ``expo``'s event
+        location has a noise floor near ``1e-6`` of the attractor, so ``free_e0`` must stay
+        well above it: docs/lyapunov.md, section 12).  The coupled copies of the Stefanski
+        ladder always run on RK4 (``e0``, ``steps_per_period``, ``step_factor``).
     """
     from beamsim.coupled_copies import run_copies
     from beamsim.point import period_steps
@@ -179,6 +190,12 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
     t_all = [np.arange(n_periods + 1) * T for T in periods]
     run_kw = dict(n_periods=n_periods, e0=e0, band=band, steps_per_period=steps_per_period,
                   step_factor=step_factor, n_threads=n_threads)
+    free_e0 = e0 if free_e0 is None else float(free_e0)
+    free_kw = dict(run_kw, e0=free_e0, method=free_method)
+    if free_method == "expo":
+        free_kw["steps_per_period"] = free_steps
+    free_offs = offs if free_e0 == e0 else [initial_offset(prepared[i], scales[i], free_e0, seed)
+                                              for i in range(P)]
 
     # round 0 for every point at once: one free copy (d = 0) per point.  Its recorded ln eps is
     # the error of the linearised, unbounded dynamics (the rescaling factors are carried), so
@@ -189,13 +206,13 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
     if plan is not None and not with_benettin:
         raise ValueError("beam_lle: plan needs with_benettin")
     t_run = time.perf_counter()
-    off0 = np.stack([o[None, :] for o in offs])
+    off0 = np.stack([o[None, :] for o in free_offs])
     first = n_periods if plan is None else max(n_periods, plan.first_periods)
     le0, fin = run_copies(prepared, x_start, off0, np.zeros((P, 1)), inv,
                           renorm_period=np.full((P, 1), with_benettin), return_final=True,
-                          **dict(run_kw, n_periods=first))
+                          **dict(free_kw, n_periods=first))
     t_round0 = time.perf_counter() - t_run
-    stats = _long_records(prepared, le0[:, 0], fin, inv, periods, plan, run_kw) if plan else [None] * P
+    stats = _long_records(prepared, le0[:, 0], fin, inv, periods, plan, free_kw) if plan else [None] * P
     le0 = le0[:, :, :n_periods + 1]
 
     out = []
@@ -220,7 +237,8 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
         t_pt = time.perf_counter()
         st = sync_search(run_batch, t_s=t_s, batch=batch, rtol=rtol, atol=1e-3 / T,
                          omega_c=pp.omega, d_cap=coupling_cap(h), zero_tol=zero_tolerance(n_periods * T),
-                         e0=e0, bounded=True, max_rounds=max_rounds, zero_first=zero_first,
+                         e0=free_e0 if zero_first else e0, bounded=True, max_rounds=max_rounds,
+                         zero_first=zero_first,
                          ladder_hint=ben.value if seed_ladder else None)
         st.runtime = time.perf_counter() - t_pt + t_round0 / P
         st.extras["n_batches"] = n_runs[0]

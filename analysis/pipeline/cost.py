@@ -5,7 +5,8 @@ The estimate is a cost model, ``seconds = c * periods / Omega``, per stage and p
 * simulate: ``c_sim(method, n_modes) * (n_transient + n_record) / Omega`` (RK4 also scaled by
   ``1 / step_factor``): the integrators' cost is proportional to the simulated time, and a
   forcing period is ``2 pi / (Omega omega_1)`` long;
-* lyapunov: ``c_lyap(n_modes) * periods / Omega * 0.5 / step_factor`` with ``periods`` the
+* lyapunov: ``c_lyap(free copy's method, n_modes) * periods / Omega`` (the RK4 pair's also
+  scaled by ``0.5 / step_factor``) with ``periods`` the
   Stefanski window ``n_periods`` plus, for the expected share :data:`LONG_RECORD_SHARE` of the
   points that need the label's long Benettin record, its expected extra length (half-way
   between the first run and the cap);
@@ -46,7 +47,7 @@ from pathlib import Path
 import yaml
 
 from analysis.pipeline.config import Numerics
-from analysis.pipeline.stages import integrator
+from analysis.pipeline.stages import free_copy_integrator, integrator
 from analysis.pipeline.store import PointStore
 
 __all__ = ["COST_MODEL_FILE", "Estimate", "LONG_RUN_SECONDS", "convergence_seconds", "estimate_run",
@@ -107,8 +108,8 @@ def _duration(seconds: float) -> str:
 
 
 def load_cost_model(path: Path = COST_MODEL_FILE) -> dict:
-    """The measured coefficients: ``{"simulate": {method: {n_modes: c}}, "lyapunov": {n_modes: c},
-    "bytes_per_point": {n_modes: bytes}}``."""
+    """The measured coefficients: ``{"simulate": {method: {n_modes: c}}, "lyapunov": {free copy's
+    method: {n_modes: c}}, "bytes_per_point": {n_modes: bytes}}``."""
     return yaml.safe_load(Path(path).read_text())
 
 
@@ -139,11 +140,13 @@ def point_seconds(params: Mapping, numerics: Numerics, model: Mapping, stages: I
             run += numerics.n_record
         seconds += c * run * scale / omega
     if "lyapunov" in stages:
-        c = _coefficient(model["lyapunov"], n_modes)
         ly = numerics.lyapunov
+        free = free_copy_integrator(ly.method, params)
+        c = _coefficient(model["lyapunov"][free], n_modes)
         plan = ly.block_plan()
         extra = max(0.0, 0.5 * (plan.first_periods + plan.max_periods) - ly.n_periods)
-        seconds += c * (ly.n_periods + LONG_RECORD_SHARE * extra) * (0.5 / ly.step_factor) / omega
+        scale = 0.5 / ly.step_factor if free == "rk4" else 1.0
+        seconds += c * (ly.n_periods + LONG_RECORD_SHARE * extra) * scale / omega
     return seconds
 
 

@@ -21,7 +21,7 @@ from analysis.pipeline.cell_attractors import MultistabilitySettings
 from analysis.pipeline.config import Numerics
 from analysis.pipeline.convergence import ConvergenceSettings, refine
 from analysis.pipeline.grid import GridPoint, canonical_json, chunk_points, expand_grid
-from analysis.pipeline.stages import integrator
+from analysis.pipeline.stages import free_copy_integrator, integrator
 from analysis.pipeline.validation import (
     load_yaml_mapping,
     validate_config,
@@ -48,6 +48,7 @@ class Plan:
     config_hash : 16 hex digits of ``table_config`` and ``grids``.
     points : grid name -> its points in axis order; chunks : grid name -> its chunks.
     simulation_methods : integrators of the reference runs.
+    lyapunov_methods : integrators of the Lyapunov stage's free copies.
     rigid_stick : whether a grid or a line has rigid-stick points (whose kernels are their own,
     so compile_kernels builds them too).
     convergence : the convergence runs' settings (sample size, seed, refinements).
@@ -63,6 +64,7 @@ class Plan:
     points: dict[str, list[GridPoint]]
     chunks: dict[str, list[list[GridPoint]]]
     simulation_methods: list[str]
+    lyapunov_methods: list[str]
     rigid_stick: bool
     convergence: ConvergenceSettings
     multistability: MultistabilitySettings
@@ -105,10 +107,11 @@ def build_plan(config: dict, schemas: Path) -> Plan:
     chunks = {name: chunk_points(pts, numerics.chunk_size) for name, pts in points.items()}
     lines = _expand_lines(grids["grids"], config["model"], result_numerics, model_schema, grid_file)
     methods = sorted({integrator(numerics.method, p.params) for pts in points.values() for p in pts})
-    rigid = any(p.params.get("law") == "rigid-stick" for group in (points, *lines.values())
-                for pts in group.values() for p in pts)
+    every = [p for group in (points, *lines.values()) for pts in group.values() for p in pts]
+    free_methods = sorted({free_copy_integrator(numerics.lyapunov.method, p.params) for p in every})
+    rigid = any(p.params.get("law") == "rigid-stick" for p in every)
     validate_lyapunov_laws(points, grid_file)
-    validate_integrators(points, numerics.method, grid_file)
+    validate_integrators(points, numerics, grid_file)
     try:
         convergence = ConvergenceSettings.from_dict(config.get("convergence"))
         multistability = MultistabilitySettings.from_dict(config.get("multistability"))
@@ -119,7 +122,7 @@ def build_plan(config: dict, schemas: Path) -> Plan:
     except ValueError as exc:
         raise WorkflowError(f"invalid config: {exc}") from None
     return Plan(grids, numerics, result_numerics, table_config, config_hash, points, chunks,
-                methods, rigid, convergence, multistability, lines)
+                methods, free_methods, rigid, convergence, multistability, lines)
 
 
 def _expand_lines(grids: dict, model: dict, result_numerics: dict, model_schema: dict,

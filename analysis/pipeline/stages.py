@@ -51,8 +51,10 @@ def compile_kernels(stage: str, methods: Sequence[str] = ("expo",), threads: int
                     rigid: bool = False) -> float:
     """Compile (or load from numba's on-disk cache) the kernels of one pipeline stage by running
     them once on a one-mode point for a few forcing periods: ``"simulate"`` compiles the reference
-    integrators in ``methods``, ``"lyapunov"`` the drive/copy kernel
-    (:func:`beamsim.coupled_copies.run_copies`); with ``rigid`` also the rigid stick's kernels
+    integrators in ``methods``, ``"lyapunov"`` the RK4 drive/copy kernel
+    (:func:`beamsim.coupled_copies.run_copies`; the Stefanski ladder's) and the free copies'
+    integrators in ``methods`` (``expo``: :mod:`beamsim.kernels.expo_copies`); with ``rigid``
+    also the rigid stick's kernels
     (RK4 and copies).  Compilation is single-threaded (its time on a fresh install:
     docs/pipeline.md); as separate one-thread jobs the two stages compile side by side instead
     of each delaying its first chunk.  The chunk jobs then load every kernel from the cache, so
@@ -77,7 +79,8 @@ def compile_kernels(stage: str, methods: Sequence[str] = ("expo",), threads: int
             start = np.zeros((1, 2 * n + 2 * nq))  # at rest, every element stuck
             # the forced response's scale
             scale = attractor_scale(np.zeros((2, 2 * n)), response_scale(pp), pp.omega)
-            beam_lle([pp], start, scale[None], n_periods=4, n_threads=threads)
+            for free in sorted({"rk4", *meths} if pt.get("law") != "rigid-stick" else {"rk4"}):
+                beam_lle([pp], start, scale[None], n_periods=4, n_threads=threads, free_method=free)
         else:
             raise ValueError(f"stage must be 'simulate' or 'lyapunov', got {stage!r}")
     return time.perf_counter() - t0
@@ -89,12 +92,18 @@ def integrator(method: str, params: dict) -> str:
     between located switches, so the stiff stuck interface costs no steps; its distance to the
     RK4 reference and its labels and cost on the default grid: docs/model.md, docs/pipeline.md),
     the RK4 reference for the rigid stick and the regularised laws (which ``expo`` does not
-    support).  The Lyapunov
-    stage always integrates with RK4 (:mod:`beamsim.coupled_copies`): ``expo``'s event-location
-    error would be measured by copies 1e-6 apart."""
+    support).  The Lyapunov stage's free copy: :func:`free_copy_integrator`."""
     if method != "auto":
         return method
     return "expo" if params.get("law", "stick-slip") == "stick-slip" else "rk4"
+
+
+def free_copy_integrator(method: str, params: dict) -> str:
+    """Integrator of a point's free Lyapunov copy (``numerics.lyapunov.method``, default
+    ``rk4``).  ``auto``: ``expo`` for the stick-slip law (:mod:`beamsim.kernels.expo_copies`;
+    its exponents against the RK4 pair's and its cost: docs/lyapunov.md, section 12), RK4 for
+    the rigid stick and the regularised laws."""
+    return integrator(method, params)
 
 
 def simulate_runs(points: list[dict], nm: Numerics, threads: int) -> list[dict]:
@@ -267,12 +276,19 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
     if good:
         prepared = {i: prepare_point(**points[i]["params"]) for i in good}
         skip = {i: long_record_exemption(sim.loc[points[i]["point_id"]], points[i]["params"]) for i in good}
-        # a fixed step count is an RK4 setting only when RK4 was asked for by name
+        # a fixed step count is an RK4 setting only when RK4 was asked for by name, and the
+        # expo output grid's (the free expo copy's measuring grid) when the reference runs are
+        # expo's (so the convergence evidence's "step / 2" reaches the expo pair too)
         rk4_steps = nm.steps_per_period if nm.method == "rk4" else None
-        for subset, plan in (([i for i in good if skip[i] is None], lopt.block_plan()),
-                             ([i for i in good if skip[i] is not None], None)):
-            if not subset:
-                continue
+        # one beam_lle call per (free copy's integrator, its expo grid, long record or not)
+        runs: dict = {}
+        for i in good:
+            params = points[i]["params"]
+            free = free_copy_integrator(lopt.method, params)
+            spp = nm.steps_per_period if free == "expo" and integrator(nm.method, params) == "expo" else None
+            runs.setdefault((free, spp or 0, skip[i] is None), []).append(i)
+        for (method, spp, long_record), subset in sorted(runs.items()):
+            plan = lopt.block_plan() if long_record else None
             pps = [prepared[i] for i in subset]
             starts = np.stack([np.asarray(sim.loc[points[i]["point_id"], "final_state"], dtype=float)
                                for i in subset])
@@ -280,7 +296,9 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
             scales = np.stack([attractor_scale(x, response_scale(pp), pp.omega)
                                for x, pp in zip(records, pps)])
             res = beam_lle(pps, starts, scales, n_periods=lopt.n_periods, steps_per_period=rk4_steps,
-                           step_factor=lopt.step_factor, n_threads=threads, plan=plan)
+                           step_factor=lopt.step_factor, n_threads=threads, plan=plan,
+                           free_method=method, free_steps=spp or None,
+                           free_e0=lopt.expo_e0 if method == "expo" else None)
             for i, est in zip(subset, res):
                 recs[i] = _lyapunov_record(sim.loc[points[i]["point_id"]], est, skip[i], lopt,
                                            points[i]["point_id"])

@@ -192,19 +192,23 @@ def validate_lyapunov_laws(points: dict, grid_file: str) -> None:
                     f"mu_k = mu_s with rigid-stick, or law: stick-slip [{grid_file}]")
 
 
-def validate_integrators(points: dict, method: str, grid_file: str) -> None:
-    """The reference runs' integrator (``numerics.method``, ``auto`` resolved per point) must
-    support every point's friction law (``expo`` and ``newmark``: stick-slip only)."""
-    from analysis.pipeline.stages import integrator
+def validate_integrators(points: dict, numerics, grid_file: str) -> None:
+    """The reference runs' integrator (``numerics.method``) and the Lyapunov stage's free copy
+    (``numerics.lyapunov.method``), ``auto`` resolved per point, must support every point's
+    friction law (``expo`` and ``newmark``: stick-slip only)."""
+    from analysis.pipeline.stages import free_copy_integrator, integrator
     from beamsim.point import check_method_law
 
-    for name, pts in points.items():
-        for p in pts:
-            try:
-                check_method_law(integrator(method, p.params), p.params.get("law", "stick-slip"))
-            except ValueError as exc:
-                raise WorkflowError(f"invalid config: numerics.method = {method!r} (grids.{name}): "
-                                    f"{exc}; use method: auto or rk4 [{grid_file}]") from None
+    for key, method, resolve in (("numerics.method", numerics.method, integrator),
+                                 ("numerics.lyapunov.method", numerics.lyapunov.method,
+                                  free_copy_integrator)):
+        for name, pts in points.items():
+            for p in pts:
+                try:
+                    check_method_law(resolve(method, p.params), p.params.get("law", "stick-slip"))
+                except ValueError as exc:
+                    raise WorkflowError(f"invalid config: {key} = {method!r} (grids.{name}): "
+                                        f"{exc}; use method: auto or rk4 [{grid_file}]") from None
 
 
 def validate_model(model: dict, what: str) -> None:

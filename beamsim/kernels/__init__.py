@@ -13,6 +13,8 @@ thin public entry in :mod:`beamsim.simulate` that dispatches by a table):
 * :mod:`beamsim.kernels.newmark` -- implicit average-acceleration Newmark with an implicit
   return mapping;
 * :mod:`beamsim.kernels.copies` -- a drive and perturbed / coupled copies (Lyapunov estimates);
+* :mod:`beamsim.kernels.expo_copies` -- a drive and free copies on ``expo`` (the Lyapunov
+  stage's free copy for the stick-slip law);
 * :mod:`beamsim.kernels.thread_pool` -- a batch's items on a pool of threads.
 
 Arguments travel as named bundles (:mod:`beamsim.kernels.bundles`): ``Point`` (the constant

@@ -536,26 +536,41 @@ def _apply_events(t_ev, md, wk, x, pt, tally):
 
 
 @njit(cache=True)
-def _new_work(pt, n_sub, cache_size):
-    """Empty pattern cache and scratch of a point."""
+def new_cache(pt, cache_size):
+    """An empty :data:`PatternCache` of ``cache_size`` slots for the points of ``pt``'s model
+    (slots allocated, touched only when filled)."""
+    n2 = 2 * pt.Mm.shape[0]
+    nq = pt.S.shape[0]
+    C = cache_size
+    return PatternCache(np.full(C, -1, np.int64), np.empty((C, n2), np.complex128),
+                        np.empty((C, n2, n2), np.complex128), np.empty((C, n2, n2), np.complex128),
+                        np.empty((C, nq, n2), np.complex128), np.empty((C, nq, n2), np.complex128),
+                        np.empty((C, n2), np.complex128), np.empty((C, n2), np.complex128),
+                        np.zeros(C, np.int64), np.zeros(C, np.int64), np.zeros((C, n2)))
+
+
+@njit(cache=True)
+def new_scratch(pt, n_sub, cnt):
+    """The :data:`ExpoWork` scratch of one trajectory with the counters ``cnt`` (``int64``,
+    4; ``cnt[0]`` is the number of filled slots of the cache the scratch is used with, so
+    trajectories that share a cache share ``cnt``)."""
     n = pt.Mm.shape[0]
     nq = pt.S.shape[0]
     n2 = 2 * n
-    C = cache_size
-    cache = PatternCache(np.full(C, -1, np.int64), np.empty((C, n2), np.complex128),
-                         np.empty((C, n2, n2), np.complex128), np.empty((C, n2, n2), np.complex128),
-                         np.empty((C, nq, n2), np.complex128), np.empty((C, nq, n2), np.complex128),
-                         np.empty((C, n2), np.complex128), np.empty((C, n2), np.complex128),
-                         np.zeros(C, np.int64), np.zeros(C, np.int64), np.zeros((C, n2)))
     free = np.zeros(nq, np.bool_)
     for j in range(nq):
         free[j] = pt.tau_s[j] <= 0.0
-    wk = ExpoWork(free, np.zeros(nq, np.bool_), np.empty(n2), np.empty(n2, np.complex128),
-                  np.empty(n2, np.complex128), np.empty(n2, np.complex128),
-                  np.empty(n2, np.complex128), np.empty(n), np.empty(n2), np.empty(n2),
-                  np.empty(n2, np.complex128), np.empty(nq), np.empty(nq), np.empty(nq),
-                  np.empty(nq), np.empty(nq), np.zeros(4, np.int64), n_sub)
-    return cache, wk
+    return ExpoWork(free, np.zeros(nq, np.bool_), np.empty(n2), np.empty(n2, np.complex128),
+                    np.empty(n2, np.complex128), np.empty(n2, np.complex128),
+                    np.empty(n2, np.complex128), np.empty(n), np.empty(n2), np.empty(n2),
+                    np.empty(n2, np.complex128), np.empty(nq), np.empty(nq), np.empty(nq),
+                    np.empty(nq), np.empty(nq), cnt, n_sub)
+
+
+@njit(cache=True)
+def _new_work(pt, n_sub, cache_size):
+    """Empty pattern cache and scratch of a point."""
+    return new_cache(pt, cache_size), new_scratch(pt, n_sub, np.zeros(4, np.int64))
 
 
 @njit(cache=True, inline="always")

@@ -25,8 +25,8 @@ def _points(omegas, numerics=Numerics()):
 
 def test_the_shipped_cost_model_covers_every_method_and_is_positive():
     model = load_cost_model()
-    for table in (model["simulate"]["expo"], model["simulate"]["rk4"], model["lyapunov"],
-                  model["bytes_per_point"]):
+    for table in (model["simulate"]["expo"], model["simulate"]["rk4"], model["lyapunov"]["expo"],
+                  model["lyapunov"]["rk4"], model["bytes_per_point"]):
         assert sorted(table) == [1, 2, 3] and all(v > 0 for v in table.values())
         assert table[1] <= table[2] <= table[3]  # more modes, more state: never cheaper
 

@@ -141,6 +141,7 @@ def test_contradicting_numerics_are_one_line_before_any_point(tmp_path):
 @pytest.mark.parametrize("edit, words", [
     (dict(method="expo"), ("numerics.method = 'expo'", "law='rigid-stick'")),
     (dict(method="newmark"), ("numerics.method = 'newmark'", "law='rigid-stick'")),
+    (dict(method="auto", lyapunov="expo"), ("numerics.lyapunov.method = 'expo'", "law='rigid-stick'")),
     (dict(method="auto", refinements=["step", "k_t"]), ("'k_t'", "rigid-stick", "no stick stiffness")),
 ])
 def test_rigid_stick_with_an_integrator_or_refinement_it_lacks_is_one_line(tmp_path, edit, words):
@@ -153,6 +154,8 @@ def test_rigid_stick_with_an_integrator_or_refinement_it_lacks_is_one_line(tmp_p
     cfg["model"]["mu_s"] = cfg["model"]["mu_k"] = 0.3
     cfg["grid_file"] = str(_equal_coefficients_grid(tmp_path))
     cfg["numerics"]["method"] = edit["method"]
+    if "lyapunov" in edit:
+        cfg["numerics"]["lyapunov"]["method"] = edit["lyapunov"]
     cfg["convergence"] = {"sample": 4, "refinements": edit.get("refinements", ["step"])}
     with pytest.raises(WorkflowError) as err:
         build_plan(cfg, SCHEMA.parent)
@@ -181,12 +184,17 @@ def test_rigid_stick_plans_with_rk4(tmp_path):
     cfg["grid_file"] = str(_equal_coefficients_grid(tmp_path))
     cfg["convergence"] = {"sample": 4, "refinements": ["step", "windows", "modes"]}
     plan = build_plan(cfg, SCHEMA.parent)
-    assert plan.simulation_methods == ["rk4"]
+    assert plan.simulation_methods == ["rk4"] and plan.lyapunov_methods == ["rk4"]
     # compile_kernels builds the rigid stick's own kernels, so no chunk job compiles them
     assert plan.rigid_stick
     cfg = _config()
     cfg["grid_file"] = str(ROOT / "config" / "grid.yaml")
-    assert not build_plan(cfg, SCHEMA.parent).rigid_stick
+    plan = build_plan(cfg, SCHEMA.parent)
+    assert not plan.rigid_stick
+    # the shipped (stick-slip) config: expo reference runs, RK4 free copies; auto: both expo
+    assert plan.simulation_methods == ["expo"] and plan.lyapunov_methods == ["rk4"]
+    cfg["numerics"]["lyapunov"]["method"] = "auto"
+    assert build_plan(cfg, SCHEMA.parent).lyapunov_methods == ["expo"]
 
 
 def test_a_rigid_stick_map_with_a_breakaway_drop_is_refused():

@@ -26,8 +26,12 @@ def _rel(a, b):
 
 def test_bonded_frequency_and_slip_onset_are_the_penalty_limit():
     """The rigidly bonded beam's first frequency and static slip-onset load are what the
-    penalty model tends to as ``k_t`` grows (error ~ 1/k_t; above ~1e6 the penalty's own
-    eigen-problem loses accuracy, so the check stops at 1e5)."""
+    penalty model tends to as ``k_t`` grows (error ~ 1/k_t).  The frequency's check stops at
+    ``k_t = 1e4``: at 1e5 the penalty's stuck eigen-problem spans about ten decades
+    (``omega_max^2 / omega_1^2``), so ``omega_1`` is computed to about ``1e-6`` only, the size of
+    the penalty error itself (measured at 1e5: 3.4e-7 on one CPU, 1.0e-6 on another, where
+    1e2 .. 1e4 give 2.6e-4, 2.6e-5, 2.6e-6 on both); ``f_cr`` comes from a linear solve and
+    converges through 1e5."""
     rigid = build_model(Geometry(n_modes=2))
     w_r = rigid.omega1_bonded_rigid
     f_r = rigid.f_cr(0.3, 1e-4, rigid=True)
@@ -38,9 +42,9 @@ def test_bonded_frequency_and_slip_onset_are_the_penalty_limit():
         errs_f.append(abs(md.f_cr(0.3, 1e-4) / f_r - 1))
     print("\nomega_1 penalty / rigid - 1 at k_t = 1e2..1e5:", [f"{e:.1e}" for e in errs_w])
     print("f_cr    penalty / rigid - 1 at k_t = 1e2..1e5:", [f"{e:.1e}" for e in errs_f])
-    for e in (errs_w, errs_f):
+    for e in (errs_w[:3], errs_f):
         assert all(b < 0.2 * a for a, b in zip(e, e[1:])), e
-    assert errs_w[-1] < 1e-6 and errs_f[-1] < 1e-4
+    assert errs_w[2] < 1e-5 and errs_w[3] < 2e-6 and errs_f[-1] < 1e-4
 
 
 @pytest.mark.slow  # compiles the rigid stick's kernel (about 70 s on a fresh clone): run early

@@ -26,8 +26,9 @@ CHUNKS = PLAN.chunks
 RESULT_NUMERICS = PLAN.result_numerics
 CONFIG_HASH = PLAN.config_hash
 TABLE_CONFIG = PLAN.table_config
-#: integrators of the reference runs (compile_kernels builds just these)
-SIMULATION_METHODS = PLAN.simulation_methods
+#: integrators of each stage (compile_kernels builds just these): the reference runs', the
+#: Lyapunov stage's free copies'
+STAGE_METHODS = {"simulate": PLAN.simulation_methods, "lyapunov": PLAN.lyapunov_methods}
 #: the convergence evidence of every map (analysis.pipeline.convergence): refinements that run
 CONVERGENCE = PLAN.convergence
 CONVERGENCE_SETTINGS = {"sample": CONVERGENCE.sample, "seed": CONVERGENCE.seed,

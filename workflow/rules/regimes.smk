@@ -2,7 +2,7 @@ rule compile_kernels:
     output:
         stamp="results/kernels/{stage}.done",
     params:
-        methods=SIMULATION_METHODS,
+        methods=lambda wildcards: STAGE_METHODS[wildcards.stage],
         rigid=PLAN.rigid_stick,
     threads: 1
     log:
