@@ -63,7 +63,7 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
                steps_per_period: int | None = None, step_factor: float = 0.5,
                n_threads: int | None = None, split: int | None = None,
                div_limit: float = 1e6, return_final: bool = False, method: str = "rk4",
-               event_checks: int = 4, pattern_cache: int = 2048):
+               event_checks: int = 4, pattern_cache: int = 2048, adoption: str = "window"):
     """Integrate the drive and its copies for ``n_periods`` forcing periods (see the module
     docstring) and return ``ln eps`` of shape ``(P, M, n_periods + 1)`` at the period
     boundaries (``nan``: the drive diverged; ``+inf``: the copy did).
@@ -93,6 +93,10 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
         grid's step ends (``steps_per_period``, default 64 per period) and ``step_factor`` is
         not used; ``event_checks`` and ``pattern_cache`` are ``expo``'s
         (:func:`beamsim.simulate.simulate_batch`).
+    adoption : ``expo`` only: how a copy takes the drive's stick/slip state where the two
+        differ (:mod:`beamsim.kernels.expo_copies`): ``"window"`` once the mismatch has lasted
+        ``tau_a = step_factor / (2 omega_max)``, half the RK4 pair's step (the mean delay with
+        which the RK4 copies adopt it at their step ends); ``"grid"`` at every output step end.
     """
     P = len(prepared)
     x_start = np.ascontiguousarray(x_start, dtype=float)
@@ -122,6 +126,8 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
             check_method_law("expo", pp.friction.law)
         if np.any(d != 0):
             raise ValueError("method='expo' integrates free copies only (d = 0)")
+        if adoption not in ("window", "grid"):
+            raise ValueError(f"adoption must be 'window' or 'grid', got {adoption!r}")
         event_checks = check_int("event_checks", event_checks, 1)
         # at most ~100 MB of decompositions per task in flight (as simulate_batch)
         pattern_cache = max(2, min(check_int("pattern_cache", pattern_cache, 1),
@@ -145,8 +151,10 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
                copies.CopySpec(offsets, d, renorm_period, inv_scale),
                copies.Band(e0, e0 * band[0], e0 * band[1]))
     if method == "expo":
-        run_items(expo_copies.run_task, bundles + (event_checks, pattern_cache, log_err, final),
-                  range(len(tasks)), threads)
+        tau_a = np.array([0.5 * step_factor / pp.omega_max if adoption == "window" else 0.0
+                          for pp in prepared])
+        opts = expo_copies.ExpoCopyOptions(event_checks, pattern_cache, tau_a)
+        run_items(expo_copies.run_task, bundles + (opts, log_err, final), range(len(tasks)), threads)
         return (log_err, final) if return_final else log_err
     args = bundles + (log_err, final)
     # the rigid stick's kernel is its own (compiled only when a rigid point is run)

@@ -16,11 +16,17 @@ with the separation ``expo_e0 = 1e-4``.  This script measures, on the pipeline's
    (125 periods, the last 100) of the ``expo`` pair at ``e0`` = 1e-6 ... 1e-3 against the RK4
    pair at 1e-6 and 1e-4, at the first measured points of part 1 and the two period-1 points of the
    band where ``expo`` at 1e-6 fails (``expo``'s event location has a noise floor near 1e-6 of
-   the attractor, docs/lyapunov.md section 12).
+   the attractor, docs/lyapunov.md section 12);
+3. **the grazing cell** (skip with ``--no-grazing``): the two attractors of the multistability
+   test's cell (``Omega = 1.378``, ``f0_rel = 0.858``, below the slip onset), where the way a
+   copy takes the drive's stick/slip state decides the exponent: ``expo`` with the adoption
+   window (half the RK4 step of step factors 0.5, 0.25, 0.125) and on its output grid against
+   the RK4 pair at those three steps.
 
 Run:  .venv/bin/python benchmarks/expo_lyapunov.py [--points N] [--e0-points K] [--rk4-quarter]
+      [--no-grazing]
 
-About 6 minutes with the defaults on 2 cores (numba kernels compiled).  The last line is
+About 8 minutes with the defaults on 2 cores (numba kernels compiled).  The last line is
 ``lyapunov_stage_speedup=<x>`` (RK4 stage time / expo stage time).
 """
 
@@ -63,30 +69,71 @@ def stage(points, sim, nm, store, threads):
     return lya, time.perf_counter() - t0
 
 
-def e0_study(params_list, threads, periods=125):
-    """Mean and standard error (4 blocks of 25 after 25 periods) of the log growth per period."""
-    res = simulate_batch(params_list, n_transient=600, n_record=64, method="expo", n_threads=threads)
-    pps = [prepare_point(**p) for p in params_list]
-    xs = np.stack([r.final_state for r in res])
-    sc = np.stack([attractor_scale(r.poincare_state, response_scale(pp), pp.omega)
-                   for r, pp in zip(res, pps)])
+def record_study(title, starts, variants, threads, periods=125):
+    """Mean and standard error (4 blocks of 25 after 25 periods) of the log growth per period
+    of free copies from ``starts`` (``(prepared, final state, scale)`` triples), one column per
+    variant ``(name, method, e0, run_copies keywords)``."""
+    pps = [s[0] for s in starts]
+    xs = np.stack([s[1] for s in starts])
+    sc = np.stack([s[2] for s in starts])
     P = len(pps)
     rows = {}
-    for name, method, e0, kw in (("expo 1e-6", "expo", 1e-6, {}), ("expo 1e-5", "expo", 1e-5, {}),
-                                 ("expo 1e-4", "expo", 1e-4, {}), ("expo 1e-3", "expo", 1e-3, {}),
-                                 ("RK4 1e-6", "rk4", 1e-6, {"step_factor": 0.5}),
-                                 ("RK4 1e-4", "rk4", 1e-4, {"step_factor": 0.5})):
+    for name, method, e0, kw in variants:
         off = np.stack([initial_offset(pp, s, e0)[None] for pp, s in zip(pps, sc)])
+        t0 = time.perf_counter()
         le = run_copies(pps, xs, off, np.zeros((P, 1)), 1 / sc, n_periods=periods, e0=e0,
                         band=(1e-2, 1e2), renorm_period=np.ones((P, 1), np.bool_), method=method,
                         n_threads=threads, **kw)[:, 0]
         blocks = np.diff(le[:, 25::25], axis=1) / 25
-        rows[name] = (blocks.mean(axis=1), blocks.std(axis=1, ddof=1) / math.sqrt(blocks.shape[1]))
-    print("\nseparation study: lambda_1 T, mean (standard error) of 4 blocks of 25 periods")
-    print("Omega   f0_rel  " + "  ".join(f"{k:>15s}" for k in rows))
-    for i, p in enumerate(params_list):
-        print(f"{p['Omega']:6.3f} {p['f0_rel']:7.3f}  "
-              + "  ".join(f"{rows[k][0][i]:+7.3f} ({rows[k][1][i]:.3f})" for k in rows))
+        rows[name] = (blocks.mean(axis=1), blocks.std(axis=1, ddof=1) / math.sqrt(blocks.shape[1]),
+                      time.perf_counter() - t0)
+    print(f"\n{title}: lambda_1 T, mean (standard error) of 4 blocks of 25 periods after 25")
+    for k, (m, se, t) in rows.items():
+        print(f"{k:>26s} " + "  ".join(f"{m[i]:+7.3f} ({se[i]:.3f})" for i in range(P)) + f"   {t:6.1f} s")
+
+
+def _settled(params_list, threads):
+    res = simulate_batch(params_list, n_transient=600, n_record=64, method="expo", n_threads=threads)
+    pps = [prepare_point(**p) for p in params_list]
+    return [(pp, r.final_state, attractor_scale(r.poincare_state, response_scale(pp), pp.omega))
+            for r, pp in zip(res, pps)]
+
+
+def e0_study(params_list, threads):
+    """The separation: expo at 1e-6 ... 1e-3 against the RK4 pair at 1e-6 and 1e-4."""
+    print("\npoints: " + ", ".join(f"({p['Omega']:.3f}, {p['f0_rel']:.3f})" for p in params_list))
+    record_study("separation study", _settled(params_list, threads),
+                 [(f"expo {e0:g}", "expo", e0, {}) for e0 in (1e-6, 1e-5, 1e-4, 1e-3)]
+                 + [("RK4 1e-6", "rk4", 1e-6, {"step_factor": 0.5}),
+                    ("RK4 1e-4", "rk4", 1e-4, {"step_factor": 0.5})], threads)
+
+
+def grazing_study(threads):
+    """The two attractors of the multistability test's cell (below the slip onset, where the
+    tractions graze their limits): the adoption of the drive's stick/slip state by window
+    (half the RK4 step of ``step_factor``) and by grid against the RK4 pair at three steps."""
+    from analysis.multistability import perturbed_starts
+    from analysis.pipeline.config import Numerics
+    from analysis.pipeline.stages import simulate_runs
+
+    cell = dict(n_modes=2, mu_s=0.45, mu_k=0.3, p=1e-4, k_t=10.0, damping=0.0,
+                interface_damping=0.5, law="stick-slip", alpha1=0.005, alpha2=0.005, beta=0.4,
+                bc="clamped-free", Omega=1.37828978659, f0_rel=0.857634334011)
+    starts = [{}] + perturbed_starts(cell, 3, seed=0, amplitude=0.3)
+    pts = [{"point_id": f"s{k}", "params": dict(cell) | dict(s)} for k, s in enumerate(starts)]
+    sims = simulate_runs([pts[0], pts[2]], Numerics(), threads)  # one start per attractor
+    pp = prepare_point(**cell)
+    settled = [(pp, np.asarray(r["final_state"], float),
+                attractor_scale(np.asarray(r["poincare_state"], float), response_scale(pp), pp.omega))
+               for r in sims]
+    print("\ngrazing cell Omega = 1.378, f0_rel = 0.858 (tests/analysis/test_multistability.py): "
+          "the attractor from rest, and the other")
+    record_study("grazing cell", settled,
+                 [(f"expo window, step factor {sf}", "expo", 1e-4, {"step_factor": sf})
+                  for sf in (0.5, 0.25, 0.125)]
+                 + [("expo grid (every T / 64)", "expo", 1e-4, {"adoption": "grid"})]
+                 + [(f"RK4 step factor {sf}", "rk4", 1e-6, {"step_factor": sf})
+                    for sf in (0.5, 0.25, 0.125)], threads)
 
 
 def main(argv=None) -> int:
@@ -96,6 +143,7 @@ def main(argv=None) -> int:
     ap.add_argument("--e0-points", type=int, default=4, help="points of the separation study "
                     "(0: skip it)")
     ap.add_argument("--rk4-quarter", action="store_true", help="also the RK4 pair at step factor 0.25")
+    ap.add_argument("--no-grazing", action="store_true", help="skip the grazing cell's study")
     ap.add_argument("--threads", type=int, default=2)
     args = ap.parse_args(argv)
     warnings.filterwarnings("ignore", module="nolds")  # its short-series notes, one per point
@@ -156,6 +204,8 @@ def main(argv=None) -> int:
         if not first:
             base = {k: v for k, v in pts[0]["params"].items() if k not in ("Omega", "f0_rel")}
         e0_study(first + [dict(base, **fp) for fp in FLOOR_POINTS], args.threads)
+    if not args.no_grazing:
+        grazing_study(args.threads)
     print(f"\nlyapunov_stage_speedup={times['RK4'] / times['expo']:.2f}")
     return 0
 

@@ -34,18 +34,18 @@ class LyapunovNumerics:
         window Benettin value that seeds its ladder, in forcing periods.
     step_factor : RK4 step of the Lyapunov runs, ``h = step_factor / omega_max``.
     method : integrator of the free copy (the Benettin record, its block statistics and
-        Stefanski's ``d = 0`` test), one of :data:`LYAPUNOV_METHODS`: ``rk4`` (the default:
-        drive and copy on the RK4 step ``step_factor``), ``expo`` (drive and copy each exact
-        between their own located switches, on the reference run's ``expo`` output grid;
-        stick-slip law only; 6-8x cheaper per period, the same labels on the default grid but
-        not at grazing-dominated attractors: docs/lyapunov.md, section 12) or ``auto``
-        (``expo`` for the stick-slip law, ``rk4`` otherwise:
+        Stefanski's ``d = 0`` test), one of :data:`LYAPUNOV_METHODS`: ``rk4`` (drive and copy
+        on the RK4 step ``step_factor``; the default until results version 8), ``expo`` (drive
+        and copy each exact between their own located switches, a stick/slip mismatch adopted
+        after half the RK4 step of ``step_factor``; stick-slip law only; 6-8x cheaper per
+        period: docs/lyapunov.md, section 12) or ``auto`` (the default: ``expo`` for the
+        stick-slip law, ``rk4`` otherwise:
         :func:`analysis.pipeline.stages.free_copy_integrator`).  The Stefanski ladder's coupled
         copies always run on RK4.
     expo_e0 : initial (and renormalised) scaled separation of an ``expo`` free copy; ``expo``'s
         event location has a noise floor near ``1e-6`` of the attractor, so the RK4 pair's
         ``1e-6`` would measure it (docs/lyapunov.md, section 12).  Not part of a point's id
-        while the free copy is RK4's (:meth:`Numerics.result_dict`).
+        when the free copy is RK4's (:meth:`Numerics.result_dict`).
     nolds_emb_dim : embedding dimension of the Rosenstein (nolds) estimate.
     block_periods, burn_in, min_blocks, max_blocks, confidence, margin : the long Benettin
         record whose block statistics decide the label
@@ -57,7 +57,7 @@ class LyapunovNumerics:
 
     n_periods: int = 25
     step_factor: float = 0.5
-    method: str = "rk4"
+    method: str = "auto"
     expo_e0: float = 1e-4
     nolds_emb_dim: int = 6
     # the long record's defaults are BlockPlan's (one place)
@@ -138,15 +138,16 @@ class Numerics:
 
     def result_dict(self) -> dict:
         """The settings that change results, resolved, as they enter point ids and the rules'
-        parameters (``steps_per_period`` only when set; ``lyapunov.method`` and ``expo_e0``
-        only when the free copy is not RK4's, whose results are those of results version 8)."""
+        parameters (``steps_per_period`` only when set; ``lyapunov.expo_e0`` only when the free
+        copy can be ``expo``'s)."""
         out = asdict(self)
         del out["chunk_size"]
         if out["steps_per_period"] is None:
             del out["steps_per_period"]
         if out["lyapunov"]["method"] == "rk4":
-            # the RK4 pair of results version 8 and before: the same ids, the stores stay valid
-            del out["lyapunov"]["method"], out["lyapunov"]["expo_e0"]
+            # the RK4 pair of results version 8 and before: the separation of an expo copy does
+            # not enter its results, so it does not enter its ids
+            del out["lyapunov"]["expo_e0"]
         return out
 
 

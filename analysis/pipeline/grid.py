@@ -25,9 +25,10 @@ import numpy as np
 from analysis.pipeline.config import Numerics, as_numerics
 
 #: bump when a code change alters results for unchanged parameters (invalidates all ids)
-RESULTS_VERSION = "8"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
+RESULTS_VERSION = "9"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
 #                        conjugate pairs with damping, kernels with reassociated sums; 8: the
-#                        continuation check (the record kept is the continued one)
+#                        continuation check (the record kept is the continued one); 9: the
+#                        Lyapunov stage's free copy on expo (numerics.lyapunov.method: auto)
 
 
 def _canonical(value):

@@ -99,10 +99,10 @@ def integrator(method: str, params: dict) -> str:
 
 
 def free_copy_integrator(method: str, params: dict) -> str:
-    """Integrator of a point's free Lyapunov copy (``numerics.lyapunov.method``, default
-    ``rk4``).  ``auto``: ``expo`` for the stick-slip law (:mod:`beamsim.kernels.expo_copies`;
-    its exponents against the RK4 pair's and its cost: docs/lyapunov.md, section 12), RK4 for
-    the rigid stick and the regularised laws."""
+    """Integrator of a point's free Lyapunov copy (``numerics.lyapunov.method``).  ``auto``
+    (the default): ``expo`` for the stick-slip law (:mod:`beamsim.kernels.expo_copies`; its
+    exponents against the RK4 pair's and its cost: docs/lyapunov.md, section 12), RK4 for the
+    rigid stick and the regularised laws."""
     return integrator(method, params)
 
 

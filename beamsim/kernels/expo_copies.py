@@ -3,18 +3,31 @@ own located switches (``expo``, :mod:`beamsim.kernels.expo`): the two-trajectory
 record of :mod:`beamsim.coupled_copies` without RK4's step.
 
 Every row (0: the drive, ``1 .. M``: the copies) is an ``expo`` trajectory with its own
-scratch; they share one pattern cache (a copy in the linear regime visits the drive's stick
-patterns, whose decompositions are then computed once).  Each row locates its own switches
-(the copies are not tied to the drive's event times), so a copy's separation from the drive
-is that of two exact solutions of the piecewise-linear system up to the event-location
-tolerance.  At every step end (``n_per`` steps per forcing period) the copies are measured,
-rescaled and given the drive's stick/slip state exactly as the RK4 copies are
-(:func:`beamsim.kernels.copies.error`, :func:`~beamsim.kernels.copies.rescale`,
-:func:`~beamsim.kernels.copies.adopt_modes`); a copy that was moved is return-mapped
-(:func:`beamsim.kernels.common.post_step`) and its modal state is projected afresh at the next
-step.  The drive is never moved, so its trajectory does not depend on the copies.  Every
-row's modal state is projected afresh from ``(q, v, z)`` at every period end, so a run
-restarted from the end states (``final``) continues the drive exactly as one longer run does.
+scratch; the drive has a pattern cache of its own, the copies share one.  Each row locates its
+own switches, so a copy's separation from the drive is that of two exact solutions of the
+piecewise-linear system up to the event-location tolerance.  The drive is never moved, so its
+trajectory does not depend on the copies.
+
+**Stick/slip mismatches.**  An element's stick/slip state is memory: a copy can stay stuck
+while its drive slides (section 7 of docs/lyapunov.md), and the RK4 copies take the drive's
+state at every RK4 step end (:func:`beamsim.kernels.copies.adopt_modes`).  Here:
+
+* ``tau_a > 0`` (the pipeline's): a mismatch of an element is adopted once it has lasted
+  ``tau_a`` -- the copy is advanced to that instant (a split of its interval) and takes the
+  drive's state and elastic strain there, evaluated from the drive's closed form over the
+  output step (each drive interval of the step is logged: :data:`DriveLog`); a mismatch that
+  the later switch of the other trajectory resolves within ``tau_a`` is left alone, so the
+  switch-time difference (the saltation term) stays in the separation;
+* ``tau_a <= 0``: the drive's state is adopted at every output step end, as the RK4 copies do
+  at theirs (the first version; its exponent depends on the grid at grazing attractors).
+
+At every output step end (``n_per`` per forcing period) the copies are measured and rescaled
+as the RK4 copies are (:func:`beamsim.kernels.copies.error`,
+:func:`~beamsim.kernels.copies.rescale`); a rescaled copy takes the drive's stick/slip state
+at once (it is then within ``e0`` of the drive), a moved copy is return-mapped
+(:func:`beamsim.kernels.common.post_step`) and projected afresh.  Every row's modal state is
+projected afresh at every period end and the time runs within the period, so a run restarted
+from the end states (``final``) continues the drive exactly as one longer run does.
 
 Stick-slip (Jenkins) law only; free copies only (a coupling ``d (x - y)`` would make a copy's
 system non-autonomous in the drive's state, which the closed form does not cover).
@@ -23,6 +36,7 @@ system non-autonomous in the drive's state, which the closed form does not cover
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 from numba import njit
@@ -32,59 +46,260 @@ from beamsim.kernels.bundles import LEAF, State, Tally, point_at
 from beamsim.kernels.copies import CopySchedule, CopySpec, adopt_modes, error, rescale
 from beamsim.results import N_STATS
 
+#: ``expo``'s checks per step, pattern-cache slots, and the adoption window ``tau_a`` (time
+#: units; ``<= 0``: adopt at output step ends)
+ExpoCopyOptions = namedtuple("ExpoCopyOptions", ("n_sub", "cache_size", "tau_a"))
+
+#: the drive's intervals within one output step: start time, cache slot and its pattern key,
+#: modal state and forcing at the start, stick/slip modes and slips at the start; ``count[0]``
+#: intervals logged
+DriveLog = namedtuple("DriveLog", ("t", "slot", "key", "zeta0", "beta", "mode", "z", "count"))
+
+#: the copies' rows (0: the drive) and their bookkeeping: states, carried log rescaling
+#: factors, live flags, cache slots, and the start time of each element's stick/slip mismatch
+#: with the drive (``-1``: none)
+Rows = namedtuple("Rows", ("Q", "V", "Z", "MODE", "logacc", "alive", "slots", "mstart"))
+
+
+@njit(cache=True, inline="always")
+def _row(rows, r):
+    return State(rows.Q[r], rows.V[r], rows.Z[r], rows.MODE[r])
+
+
+@njit(cache=True)
+def _new_log(n2, nq, size):
+    return DriveLog(np.zeros(size), np.zeros(size, np.int64), np.zeros(size, np.int64),
+                    np.zeros((size, n2), np.complex128), np.zeros((size, n2), np.complex128),
+                    np.zeros((size, nq), np.int64), np.zeros((size, nq)), np.zeros(1, np.int64))
+
 
 @njit(**LEAF)
-def _measure(p, c0, step, rows, slots, spec, band, n_per, pt, tally, log_err):
+def _log_interval(log, k, t0, slot, key, wk, x):
+    log.t[k] = t0
+    log.slot[k] = slot
+    log.key[k] = key
+    for i in range(wk.zeta0.shape[0]):
+        log.zeta0[k, i] = wk.zeta0[i]
+        log.beta[k, i] = wk.beta[i]
+    for j in range(x.mode.shape[0]):
+        log.mode[k, j] = x.mode[j]
+        log.z[k, j] = x.z[j]
+
+
+@njit(cache=True)
+def _drive_step(t0, t_end, slot, cache, wk, x, pt, tally, log):
+    """:func:`beamsim.kernels.expo._step` of the drive (the same arithmetic), with every
+    interval logged; returns the slot for the next step."""
+    guard = 0
+    k = 0
+    while True:
+        if slot < 0:
+            slot = expo._pattern_slot(cache, wk, x, pt)
+            expo._project(expo._modes(cache, slot), wk, x, pt)
+        _log_interval(log, k, t0, slot, cache.keys[slot], wk, x)
+        k += 1
+        t0, switched = expo._interval(t0, t_end, slot, cache, wk, x, pt, tally)
+        if not switched:
+            break
+        slot = -1
+        guard += 1
+        if guard > 10 * x.z.shape[0] + 10:
+            break
+    log.count[0] = k
+    return slot
+
+
+@njit(cache=True, inline="always")
+def _drive_interval(t, log):
+    """Index of the drive's logged interval that holds time ``t`` (the last one starting at
+    or before it: a switch at ``t`` belongs to the interval it starts)."""
+    k = 0
+    for i in range(1, log.count[0]):
+        if log.t[i] <= t:
+            k = i
+    return k
+
+
+@njit(cache=True)
+def _drive_modes(k, cache, log, pt, wk):
+    """The decomposition of the drive's logged interval ``k`` (recomputed if its cache slot has
+    been reused since) and a scratch with its modal state and forcing at the interval's start."""
+    slot = log.slot[k]
+    if cache.keys[slot] == log.key[k]:
+        md = expo._modes(cache, slot)
+    else:
+        for j in range(log.mode.shape[1]):
+            wk.stuck[j] = log.mode[k, j] == 0 and not wk.free[j]
+        lam, V, Vi, SVq, SVv, cg, gam, nh, nc, wt = expo._pattern(wk.stuck, pt)
+        c = np.ascontiguousarray
+        md = expo.Modes(c(lam), c(V), c(Vi), c(SVq), c(SVv), c(cg), c(gam), nh, nc, c(wt))
+    w = expo.ExpoWork(wk.free, wk.stuck, wk.xr, log.zeta0[k], wk.zeta, wk.ztmp, log.beta[k], wk.rv,
+                      wk.r1, wk.r2, wk.zdot, wk.sbuf, wk.sdbuf, wk.fcur, wk.fprev, wk.rate, wk.cnt,
+                      wk.n_sub)
+    return md, w
+
+
+@njit(cache=True)
+def _drive_at(t, log, cache, pt, wk, q, v, strain):
+    """The drive's ``(q, v)`` and every element's elastic strain ``s - z`` at time ``t`` of
+    the logged output step (closed form of its interval; ``wk``: scratch)."""
+    k = _drive_interval(t, log)
+    md, w = _drive_modes(k, cache, log, pt, wk)
+    expo._zeta_at(t - log.t[k], md, w, log.t[k], pt, wk.ztmp)
+    n = q.shape[0]
+    for i in range(n):
+        aq = 0.0
+        av = 0.0
+        for m in range(md.nh):
+            aq += md.wt[m] * (md.V[i, m] * wk.ztmp[m]).real
+            av += md.wt[m] * (md.V[n + i, m] * wk.ztmp[m]).real
+        q[i] = aq
+        v[i] = av
+    for j in range(strain.shape[0]):
+        if log.mode[k, j] != 0:
+            strain[j] = log.mode[k, j] * pt.tau_k[j] / pt.kt
+        else:
+            s = 0.0
+            for i in range(n):
+                s += pt.S[j, i] * q[i]
+            strain[j] = s - log.z[k, j]
+
+
+@njit(**LEAF)
+def _note_mismatches(r, t, rows, log):
+    """Start or end the stick/slip mismatches of copy ``r`` against the drive's state at
+    ``t``."""
+    k = _drive_interval(t, log)
+    for j in range(rows.MODE.shape[1]):
+        if rows.MODE[r, j] != log.mode[k, j]:
+            if rows.mstart[r, j] < 0.0:
+                rows.mstart[r, j] = t
+        else:
+            rows.mstart[r, j] = -1.0
+
+
+@njit(cache=True)
+def _adopt_due(r, t, tau_a, rows, log, cache_x, pt, wk, spec, band, scratch):
+    """Copy ``r`` at time ``t``: every mismatch that has lasted ``tau_a`` takes the drive's
+    stick/slip state and elastic strain (while the copy is within ``10 e0`` of the drive; else
+    it waits another ``tau_a``).  Returns True if the copy was changed."""
+    due = False
+    for j in range(rows.MODE.shape[1]):
+        if rows.mstart[r, j] >= 0.0 and rows.mstart[r, j] + tau_a <= t:
+            due = True
+    if not due:
+        return False
+    q, v, strain = scratch
+    _drive_at(t, log, cache_x, pt, wk, q, v, strain)
+    y = _row(rows, r)
+    if error(q, v, y.q, y.v, spec.inv_scale) > 10.0 * band.e0:
+        for j in range(rows.MODE.shape[1]):
+            if rows.mstart[r, j] >= 0.0 and rows.mstart[r, j] + tau_a <= t:
+                rows.mstart[r, j] = t
+        return False
+    k = _drive_interval(t, log)
+    for j in range(rows.MODE.shape[1]):
+        if rows.mstart[r, j] >= 0.0 and rows.mstart[r, j] + tau_a <= t:
+            s = 0.0
+            for i in range(y.q.shape[0]):
+                s += pt.S[j, i] * y.q[i]
+            y.z[j] = s - strain[j]
+            y.mode[j] = log.mode[k, j]
+            rows.mstart[r, j] = -1.0
+    return True
+
+
+@njit(cache=True)
+def _copy_step(r, t0, t1, rows, work, pt, tally, opts, spec, band):
+    """Advance copy ``r`` over the output step ``[t0, t1]`` (the drive already is): its own
+    switches, a split at every switch of the drive (its mismatches are noted there) and at
+    every adoption that falls due (``opts.tau_a > 0``).  ``work``: the drive's log, the two
+    pattern caches (drive, copies), every row's scratch and three scratch vectors."""
+    log, caches, wks, scratch = work
+    cache_x, cache_y = caches
+    wk = wks[r]
+    y = _row(rows, r)
+    tau_a = opts.tau_a
+    guard = 0
+    t = t0
+    while t < t1:
+        t_next = t1
+        if tau_a > 0.0:
+            for i in range(1, log.count[0]):
+                if log.t[i] > t:
+                    t_next = min(t_next, log.t[i])
+                    break
+            for j in range(rows.MODE.shape[1]):
+                if rows.mstart[r, j] >= 0.0:
+                    t_next = min(t_next, max(rows.mstart[r, j] + tau_a, t))
+        if t_next > t:
+            if rows.slots[r] < 0:
+                rows.slots[r] = expo._pattern_slot(cache_y, wk, y, pt)
+                expo._project(expo._modes(cache_y, rows.slots[r]), wk, y, pt)
+            t_reached, switched = expo._interval(t, t_next, rows.slots[r], cache_y, wk, y, pt, tally)
+            if switched:
+                rows.slots[r] = -1
+                guard += 1
+                if guard > 10 * y.z.shape[0] + 10:
+                    return  # Zeno guard, as expo's: accept the state, resume on the grid
+                if tau_a > 0.0:
+                    _note_mismatches(r, t_reached, rows, log)
+                t = t_reached
+                continue
+            t = t_next
+        if tau_a > 0.0:
+            _note_mismatches(r, t, rows, log)
+            if _adopt_due(r, t, tau_a, rows, log, cache_x, pt, wks[0], spec, band, scratch):
+                common.post_step(t, y, pt, tally, False, True)
+                rows.slots[r] = -1
+                _note_mismatches(r, t, rows, log)
+
+
+@njit(**LEAF)
+def _measure(p, c0, step, rows, spec, band, n_per, pt, tally, log_err, grid_adoption):
     """After a step: each copy's scaled error, recorded (with the carried rescaling factors)
     at period ends; a copy outside the band (or flagged for period renormalisation at a period
-    end) is moved back to ``e0``; a copy within ``10 e0`` adopts the drive's stick/slip state;
-    a moved copy is return-mapped and its pattern looked up again (``slots[r] = -1``); a copy
-    whose error is not finite is dropped (``+inf`` from then on).  ``rows``: ``(Q, V, Z, MODE,
-    logacc, alive)``."""
-    Q, V, Z, MODE, logacc, alive = rows
-    x = State(Q[0], V[0], Z[0], MODE[0])
+    end) is moved back to ``e0`` and takes the drive's stick/slip state (with
+    ``grid_adoption`` every copy within ``10 e0`` does); a moved copy is return-mapped and its
+    pattern looked up again; a copy whose error is not finite is dropped (``+inf`` from then
+    on)."""
+    x = _row(rows, 0)
     period_end = (step + 1) % n_per == 0
     t = ((step % n_per) + 1) * (2.0 * math.pi / pt.om) / n_per
-    for m in range(logacc.shape[0]):
+    for m in range(rows.logacc.shape[0]):
         r = m + 1
-        if not alive[r]:
+        if not rows.alive[r]:
             continue
-        y = State(Q[r], V[r], Z[r], MODE[r])
+        y = _row(rows, r)
         e = error(x.q, x.v, y.q, y.v, spec.inv_scale)
         if not math.isfinite(e):
-            alive[r] = False
+            rows.alive[r] = False
             for k in range((step + 1) // n_per, log_err.shape[2]):
                 log_err[p, c0 + m, k] = np.inf
             continue
         if period_end:
             k = (step + 1) // n_per
-            log_err[p, c0 + m, k] = (math.log(e) + logacc[m]) if e > 0.0 else -np.inf
+            log_err[p, c0 + m, k] = (math.log(e) + rows.logacc[m]) if e > 0.0 else -np.inf
         moved = False
         if e > 0.0 and (e > band.hi or e < band.lo or (period_end and spec.renorm_period[c0 + m])):
-            logacc[m] += math.log(e / band.e0)
+            rows.logacc[m] += math.log(e / band.e0)
             rescale(band.e0 / e, x, y)
             e = band.e0
             moved = True
-        if e <= 10.0 * band.e0 and adopt_modes(x, y, pt) > 0:
+        if (moved or grid_adoption) and e <= 10.0 * band.e0 and adopt_modes(x, y, pt) > 0:
             moved = True
         if moved:
             common.post_step(t, y, pt, tally, False, True)
-            slots[r] = -1
+            rows.slots[r] = -1
+            for j in range(rows.mstart.shape[1]):
+                rows.mstart[r, j] = -1.0 if y.mode[j] == x.mode[j] else t
 
 
 @njit(cache=True)
-def expo_copies_task(p, c0, c1, pt, sch, x_start, spec, band, n_sub, cache_size, log_err,
-                     final):
-    """Integrate point ``p``'s drive with its free copies ``c0 .. c1 - 1`` for
-    ``sch.n_periods`` periods of ``sch.n_per`` steps (the output grid of ``expo``: the copies
-    are measured at step ends), writing ``ln eps`` at the period boundaries into
-    ``log_err[p, c0:c1]`` (``nan``: the drive diverged; ``+inf``: the copy did) and the end
-    states ``(q, v, z, mode)`` into ``final`` as :func:`beamsim.kernels.copies.copies_task`
-    does.  ``n_sub``, ``cache_size``: ``expo``'s checks per step and pattern-cache slots."""
-    n = pt.Mm.shape[0]
-    nq = pt.S.shape[0]
-    M = c1 - c0
-    R = M + 1
+def _new_rows(x_start, spec, c0, c1, n, nq):
+    """Drive (row 0) at ``x_start``, copy ``m`` at ``x_start + offsets[c0 + m]`` with the
+    drive's stick/slip state."""
+    R = c1 - c0 + 1
     Q = np.empty((R, n))
     V = np.empty((R, n))
     Z = np.empty((R, nq))
@@ -96,61 +311,79 @@ def expo_copies_task(p, c0, c1, pt, sch, x_start, spec, band, n_sub, cache_size,
         for j in range(nq):
             Z[r, j] = x_start[2 * n + j] + (spec.offsets[c0 + r - 1, 2 * n + j] if r > 0 else 0.0)
             MODE[r, j] = int(x_start[2 * n + nq + j])
-    logacc = np.zeros(M)
-    alive = np.ones(R, np.bool_)
-    rows = (Q, V, Z, MODE, logacc, alive)
-    cache = expo.new_cache(pt, cache_size)
-    cnt = np.zeros(4, np.int64)
-    wks = [expo.new_scratch(pt, n_sub, cnt) for _ in range(R)]
-    slots = np.full(R, -1, np.int64)
+    return Rows(Q, V, Z, MODE, np.zeros(R - 1), np.ones(R, np.bool_), np.full(R, -1, np.int64),
+                np.full((R, nq), -1.0))
+
+
+@njit(cache=True)
+def expo_copies_task(p, c0, c1, pt, sch, x_start, spec, band, opts, log_err, final):
+    """Integrate point ``p``'s drive with its free copies ``c0 .. c1 - 1`` for
+    ``sch.n_periods`` periods of ``sch.n_per`` steps (the output grid of ``expo``: the copies
+    are measured at step ends), writing ``ln eps`` at the period boundaries into
+    ``log_err[p, c0:c1]`` (``nan``: the drive diverged; ``+inf``: the copy did) and the end
+    states ``(q, v, z, mode)`` into ``final`` as :func:`beamsim.kernels.copies.copies_task`
+    does.  ``opts``: :data:`ExpoCopyOptions`."""
+    n = pt.Mm.shape[0]
+    nq = pt.S.shape[0]
+    rows = _new_rows(x_start, spec, c0, c1, n, nq)
+    R = c1 - c0 + 1
+    caches = (expo.new_cache(pt, opts.cache_size), expo.new_cache(pt, opts.cache_size))
+    cnts = (np.zeros(4, np.int64), np.zeros(4, np.int64))
+    wks = [expo.new_scratch(pt, opts.n_sub, cnts[0] if r == 0 else cnts[1]) for r in range(R)]
+    log = _new_log(2 * n, nq, 10 * nq + 12)
+    scratch = (np.empty(n), np.empty(n), np.empty(nq))
+    work = (log, caches, wks, scratch)
     tally = Tally(np.zeros(3), np.zeros(N_STATS))
-    x = State(Q[0], V[0], Z[0], MODE[0])
-    for m in range(M):
-        e = error(x.q, x.v, Q[m + 1], V[m + 1], spec.inv_scale)
+    x = _row(rows, 0)
+    for m in range(R - 1):
+        e = error(x.q, x.v, rows.Q[m + 1], rows.V[m + 1], spec.inv_scale)
         log_err[p, c0 + m, 0] = math.log(e) if e > 0.0 else -np.inf
     h, n_per = sch.h, sch.n_per
     for step in range(sch.n_periods * n_per):
         # time within the forcing period (the forcing is T-periodic; a restart at t = 0 on a
         # period boundary then continues the same arithmetic)
         t0 = (step % n_per) * h
-        t_end = (step % n_per + 1) * h
-        for r in range(R):
-            if not alive[r]:
-                continue
-            y = State(Q[r], V[r], Z[r], MODE[r])
-            _, slots[r] = expo._step(t0, t_end, slots[r], cache, wks[r], y, pt, tally)
+        t1 = (step % n_per + 1) * h
+        rows.slots[0] = _drive_step(t0, t1, rows.slots[0], caches[0], wks[0], x, pt, tally, log)
         if common.diverged(x.q, x.v, sch.div_limit):
-            for m in range(M):
+            for m in range(R - 1):
                 for k in range(log_err.shape[2]):
                     log_err[p, c0 + m, k] = np.nan
             return
-        _measure(p, c0, step, rows, slots, spec, band, n_per, pt, tally, log_err)
+        for r in range(1, R):
+            if rows.alive[r]:
+                _copy_step(r, t0, t1, rows, work, pt, tally, opts, spec, band)
+        _measure(p, c0, step, rows, spec, band, n_per, pt, tally, log_err, opts.tau_a <= 0.0)
         if (step + 1) % n_per == 0:
             # every row starts a period from its state (q, v, z, mode), projected afresh, as a
             # run restarted from the end states does: a continued record is that of one run
             for r in range(R):
-                slots[r] = -1
+                rows.slots[r] = -1
+                if r > 0:
+                    for j in range(nq):
+                        if rows.mstart[r, j] >= 0.0:
+                            rows.mstart[r, j] -= n_per * h
     for r in range(R):
         if r == 0 and c0 != 0:
             continue
         dst = final[p, 0] if r == 0 else final[p, c0 + r]
         for i in range(n):
-            dst[i] = Q[r, i]
-            dst[n + i] = V[r, i]
+            dst[i] = rows.Q[r, i]
+            dst[n + i] = rows.V[r, i]
         for j in range(nq):
-            dst[2 * n + j] = Z[r, j]
-            dst[2 * n + nq + j] = MODE[r, j]
+            dst[2 * n + j] = rows.Z[r, j]
+            dst[2 * n + nq + j] = rows.MODE[r, j]
 
 
 @njit(cache=True, nogil=True)
-def run_task(tasks, stk, sch, x_start, spec, band, n_sub, cache_size, log_err, final, k):
+def run_task(tasks, stk, sch, x_start, spec, band, opts, log_err, final, k):
     """Task ``k`` ``(point, first copy, end copy)`` of ``tasks`` (an item of
     :func:`beamsim.kernels.thread_pool.run_items`); bundles stacked over the points as in
-    :func:`beamsim.kernels.copies.run_task`.  The point carries its full damping matrix (the
-    interface dashpot included), as ``expo``'s reference runs do."""
+    :func:`beamsim.kernels.copies.run_task` (``opts.tau_a`` per point).  The point carries its
+    full damping matrix (the interface dashpot included), as ``expo``'s reference runs do."""
     p = tasks[k, 0]
     expo_copies_task(p, tasks[k, 1], tasks[k, 2], point_at(stk, p, False),
                      CopySchedule(sch.h[p], sch.n_per[p], sch.n_periods, sch.div_limit[p]),
                      x_start[p], CopySpec(spec.offsets[p], spec.d[p], spec.renorm_period[p],
-                                          spec.inv_scale[p]), band, n_sub, cache_size, log_err,
-                     final)
+                                          spec.inv_scale[p]), band,
+                     ExpoCopyOptions(opts.n_sub, opts.cache_size, opts.tau_a[p]), log_err, final)

@@ -37,23 +37,18 @@ def test_result_dict_leaves_out_chunk_size_and_an_unset_step_count():
     assert Numerics(steps_per_period=64).result_dict()["steps_per_period"] == 64
 
 
-def test_the_rk4_free_copy_keeps_the_ids_of_results_version_8():
-    """The free copy's integrator entered the settings after results version 8; with the RK4
-    pair (the default, whose results are version 8's) the ids are those of version 8, so a
-    store computed then stays valid.  The expo copy and its separation do enter the id."""
-    d = Numerics().result_dict()
-    assert "method" not in d["lyapunov"] and "expo_e0" not in d["lyapunov"]
-    assert set(d["lyapunov"]) == {"n_periods", "step_factor", "nolds_emb_dim", "block_periods",
-                                  "burn_in", "min_blocks", "max_blocks", "confidence", "margin"}
+def test_the_free_copys_integrator_and_separation_enter_the_id():
+    """The free copy's integrator is part of a point's id, and the separation of an ``expo``
+    copy too -- but not for an RK4 pair, whose results it does not change."""
     params = {"n_modes": 1, "Omega": 2.0}
-    expo = Numerics.from_dict({"lyapunov": {"method": "expo"}})
-    assert expo.result_dict()["lyapunov"]["expo_e0"] == 1e-4
-    assert point_id(params, expo) != point_id(params, Numerics())
-    assert point_id(params, Numerics.from_dict({"lyapunov": {"method": "expo", "expo_e0": 1e-5}})) \
-        != point_id(params, expo)
-    # the separation of an expo copy does not change an RK4 pair's result or id
+    assert Numerics().result_dict()["lyapunov"]["expo_e0"] == 1e-4
+    rk4 = Numerics.from_dict({"lyapunov": {"method": "rk4"}})
+    assert "expo_e0" not in rk4.result_dict()["lyapunov"]
+    assert point_id(params, rk4) != point_id(params, Numerics())
     assert point_id(params, Numerics.from_dict({"lyapunov": {"expo_e0": 1e-5}})) \
-        == point_id(params, Numerics())
+        != point_id(params, Numerics())
+    assert point_id(params, Numerics.from_dict({"lyapunov": {"method": "rk4", "expo_e0": 1e-5}})) \
+        == point_id(params, rk4)
 
 
 @pytest.mark.parametrize("bad, key", [({"step_size": 1.0}, "step_size"),

@@ -191,10 +191,10 @@ def test_rigid_stick_plans_with_rk4(tmp_path):
     cfg["grid_file"] = str(ROOT / "config" / "grid.yaml")
     plan = build_plan(cfg, SCHEMA.parent)
     assert not plan.rigid_stick
-    # the shipped (stick-slip) config: expo reference runs, RK4 free copies; auto: both expo
-    assert plan.simulation_methods == ["expo"] and plan.lyapunov_methods == ["rk4"]
-    cfg["numerics"]["lyapunov"]["method"] = "auto"
-    assert build_plan(cfg, SCHEMA.parent).lyapunov_methods == ["expo"]
+    # the shipped (stick-slip) config: expo reference runs and expo free copies; rk4: RK4 pairs
+    assert plan.simulation_methods == ["expo"] and plan.lyapunov_methods == ["expo"]
+    cfg["numerics"]["lyapunov"]["method"] = "rk4"
+    assert build_plan(cfg, SCHEMA.parent).lyapunov_methods == ["rk4"]
 
 
 def test_a_rigid_stick_map_with_a_breakaway_drop_is_refused():

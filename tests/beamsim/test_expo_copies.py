@@ -63,12 +63,17 @@ def test_the_drive_is_expos_reference_run(settled):
 
 
 def test_a_copy_without_offset_is_the_drive(settled):
+    """A copy without offset stays on the drive to round-off, with either adoption rule (the
+    drive and the copies are stepped by two kernels, whose compiled arithmetic may differ in the
+    last bits; with the adoption window the copy's intervals are also split at the drive's
+    switches).  Measured: 1.4e-12 after 3 periods."""
     res, prepared, scales = settled
     pp = prepared[0]
     off = np.zeros((1, 2, 2 * pp.model.n + pp.model.n_quad))
-    le = run_copies([pp], res[0].final_state[None], off, np.zeros((1, 2)), 1 / scales[:1],
-                    n_periods=3, e0=1e-4, renorm_period=np.array([[False, True]]), method="expo")
-    assert np.all(le[0, :, 1:] == -np.inf)
+    kw = dict(n_periods=3, e0=1e-4, renorm_period=np.array([[False, True]]), method="expo")
+    args = ([pp], res[0].final_state[None], off, np.zeros((1, 2)), 1 / scales[:1])
+    for adoption in ("grid", "window"):
+        assert np.all(run_copies(*args, adoption=adoption, **kw)[0, :, 1:] < math.log(1e-10))
 
 
 def test_separation_is_linear_in_the_offset_above_the_event_noise(settled):
