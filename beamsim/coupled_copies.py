@@ -92,7 +92,8 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
         only).  With ``expo`` the copies are measured and rescaled at the ``expo`` output
         grid's step ends (``steps_per_period``, default 64 per period) and ``step_factor`` is
         not used; ``event_checks`` and ``pattern_cache`` are ``expo``'s
-        (:func:`beamsim.simulate.simulate_batch`).
+        (:func:`beamsim.simulate.simulate_batch`; here the slots of each of two caches, the
+        drive's and the copies').
     adoption : ``expo`` only: how a copy takes the drive's stick/slip state where the two
         differ (:mod:`beamsim.kernels.expo_copies`): ``"window"`` once the mismatch has lasted
         ``tau_a = step_factor / (2 omega_max)``, half the RK4 pair's step (the mean delay with
@@ -129,9 +130,10 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
         if adoption not in ("window", "grid"):
             raise ValueError(f"adoption must be 'window' or 'grid', got {adoption!r}")
         event_checks = check_int("event_checks", event_checks, 1)
-        # at most ~100 MB of decompositions per task in flight (as simulate_batch)
+        # at most ~100 MB of decompositions per task in flight (as simulate_batch), in two
+        # caches (the drive's and the copies')
         pattern_cache = max(2, min(check_int("pattern_cache", pattern_cache, 1),
-                                   int(1e8 // (2 * (2 * n) ** 2 * 16 + 1))))
+                                   int(0.5e8 // (2 * (2 * n) ** 2 * 16 + 1))))
     stk = stack_points(prepared, div_limit)
     h = np.empty(P)
     n_per = np.empty(P, np.int64)

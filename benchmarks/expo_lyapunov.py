@@ -1,14 +1,14 @@
 """The Lyapunov stage's free copy on ``expo`` against the RK4 pair: same exponents, how much faster?
 
 The label's exponent is the block statistics of a renormalised two-trajectory (Benettin)
-record (docs/lyapunov.md, section 10).  By default drive and copy run on RK4 at step factor
-0.5; ``numerics.lyapunov.method: expo`` runs them on ``expo``
+record (docs/lyapunov.md, section 10).  Until results version 8 drive and copy ran on RK4 at
+step factor 0.5; ``numerics.lyapunov.method: auto`` (the default) runs them on ``expo``
 (:mod:`beamsim.kernels.expo_copies`: each trajectory exact between its own located switches)
 with the separation ``expo_e0 = 1e-4``.  This script measures, on the pipeline's own stages:
 
 1. **the stage**: every k-th point of the default grid (``--points``, default 100) through the
    simulate stage once, then the Lyapunov stage twice -- free copy on RK4 (``method: rk4``,
-   ``e0 = 1e-6``, the default) and on ``expo`` -- with the stage times, side by side
+   ``e0 = 1e-6``, the stage of results version 8) and on ``expo`` -- with the stage times, side by side
    in one process, and per point the exponent ``lambda_1 T``, its interval and verdict, and the
    label from the classifier; ``--rk4-quarter`` adds the RK4 pair at step factor 0.25 (the
    reference of the RK4 pair's own step convergence);

@@ -25,10 +25,11 @@ import numpy as np
 from analysis.pipeline.config import Numerics, as_numerics
 
 #: bump when a code change alters results for unchanged parameters (invalidates all ids)
-RESULTS_VERSION = "9"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
+RESULTS_VERSION = "10"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
 #                        conjugate pairs with damping, kernels with reassociated sums; 8: the
 #                        continuation check (the record kept is the continued one); 9: the
-#                        Lyapunov stage's free copy on expo (numerics.lyapunov.method: auto)
+#                        Lyapunov stage's free copy on expo (numerics.lyapunov.method: auto);
+#                        10: auto keeps the RK4 free copy where mu_s = mu_k
 
 
 def _canonical(value):

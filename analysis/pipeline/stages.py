@@ -100,10 +100,24 @@ def integrator(method: str, params: dict) -> str:
 
 def free_copy_integrator(method: str, params: dict) -> str:
     """Integrator of a point's free Lyapunov copy (``numerics.lyapunov.method``).  ``auto``
-    (the default): ``expo`` for the stick-slip law (:mod:`beamsim.kernels.expo_copies`; its
-    exponents against the RK4 pair's and its cost: docs/lyapunov.md, section 12), RK4 for the
-    rigid stick and the regularised laws."""
-    return integrator(method, params)
+    (the default): ``expo`` for the stick-slip law with ``mu_s > mu_k``
+    (:mod:`beamsim.kernels.expo_copies`; its exponents against the RK4 pair's and its cost:
+    docs/lyapunov.md, section 12), RK4 otherwise: for the rigid stick and the regularised laws,
+    and for ``mu_s = mu_k``, where an element sticks at its slip limit and the ``expo`` copy
+    can chatter between stick and slip at a grazing reversal (section 12)."""
+    if method != "auto":
+        return method
+    if integrator(method, params) == "expo" and expo_copy_supported(params):
+        return "expo"
+    return "rk4"
+
+
+def expo_copy_supported(params: dict) -> bool:
+    """Whether the ``expo`` free copy is validated for ``params``: the stick-slip law with
+    ``mu_s > mu_k`` (a stuck element then starts below its slip limit)."""
+    mu_s, mu_k = params.get("mu_s"), params.get("mu_k")
+    return (params.get("law", "stick-slip") == "stick-slip" and mu_s is not None
+            and mu_k is not None and float(mu_s) > float(mu_k))
 
 
 def simulate_runs(points: list[dict], nm: Numerics, threads: int) -> list[dict]:

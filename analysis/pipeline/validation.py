@@ -196,7 +196,7 @@ def validate_integrators(points: dict, numerics, grid_file: str) -> None:
     """The reference runs' integrator (``numerics.method``) and the Lyapunov stage's free copy
     (``numerics.lyapunov.method``), ``auto`` resolved per point, must support every point's
     friction law (``expo`` and ``newmark``: stick-slip only)."""
-    from analysis.pipeline.stages import free_copy_integrator, integrator
+    from analysis.pipeline.stages import expo_copy_supported, free_copy_integrator, integrator
     from beamsim.point import check_method_law
 
     for key, method, resolve in (("numerics.method", numerics.method, integrator),
@@ -209,6 +209,14 @@ def validate_integrators(points: dict, numerics, grid_file: str) -> None:
                 except ValueError as exc:
                     raise WorkflowError(f"invalid config: {key} = {method!r} (grids.{name}): "
                                         f"{exc}; use method: auto or rk4 [{grid_file}]") from None
+                if (resolve is free_copy_integrator and resolve(method, p.params) == "expo"
+                        and not expo_copy_supported(p.params)):
+                    raise WorkflowError(
+                        f"invalid config: {key} = 'expo' (grids.{name}) needs mu_s > mu_k "
+                        f"(mu_s = {p.params.get('mu_s')!r}, mu_k = {p.params.get('mu_k')!r}: a "
+                        f"stuck element starting at its slip limit can make the expo copy "
+                        f"chatter, docs/lyapunov.md section 12); use method: auto or rk4 "
+                        f"[{grid_file}]")
 
 
 def validate_model(model: dict, what: str) -> None:

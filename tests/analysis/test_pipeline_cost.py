@@ -28,7 +28,12 @@ def test_the_shipped_cost_model_covers_every_method_and_is_positive():
     for table in (model["simulate"]["expo"], model["simulate"]["rk4"], model["lyapunov"]["expo"],
                   model["lyapunov"]["rk4"], model["bytes_per_point"]):
         assert sorted(table) == [1, 2, 3] and all(v > 0 for v in table.values())
-        assert table[1] <= table[2] <= table[3]  # more modes, more state: never cheaper
+    # a fixed-length RK4 run and the store's records: more modes, more state, never cheaper.
+    # The other coefficients average a regime-dependent workload over the 8-point sample (expo's
+    # events, adaptive transients, the Stefanski ladder at the points it runs), which the mode
+    # count changes too, so they need not be monotone (docs/reliability.md)
+    for table in (model["simulate"]["rk4"], model["bytes_per_point"]):
+        assert table[1] <= table[2] <= table[3]
 
 
 def test_only_points_without_a_store_record_count_as_new(tmp_path):

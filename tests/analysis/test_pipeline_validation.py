@@ -197,6 +197,25 @@ def test_rigid_stick_plans_with_rk4(tmp_path):
     assert build_plan(cfg, SCHEMA.parent).lyapunov_methods == ["rk4"]
 
 
+def test_equal_coefficients_keep_the_rk4_free_copy(tmp_path):
+    """``mu_s = mu_k`` (the paper's law): ``auto`` gives the stick-slip map expo reference runs
+    but RK4 free copies (an element sticks at its slip limit; the expo copy can chatter there,
+    docs/lyapunov.md section 12), and ``lyapunov.method: expo`` is refused in one line naming
+    the key and both coefficients."""
+    from analysis.pipeline.plan import build_plan
+
+    cfg = _config()
+    cfg["grid_file"] = str(_equal_coefficients_grid(tmp_path))
+    plan = build_plan(cfg, SCHEMA.parent)
+    assert plan.simulation_methods == ["expo"] and plan.lyapunov_methods == ["rk4"]
+    cfg["numerics"]["lyapunov"]["method"] = "expo"
+    with pytest.raises(WorkflowError) as err:
+        build_plan(cfg, SCHEMA.parent)
+    msg = str(err.value)
+    assert msg.startswith("invalid config: numerics.lyapunov.method = 'expo'") and "\n" not in msg
+    assert "needs mu_s > mu_k" in msg and "mu_s = 0.3, mu_k = 0.3" in msg, msg
+
+
 def test_a_rigid_stick_map_with_a_breakaway_drop_is_refused():
     """``mu_s > mu_k`` with the rigid stick: no Lyapunov exponent to map (one line, naming
     both coefficients and the alternative)."""
