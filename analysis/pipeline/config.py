@@ -39,7 +39,7 @@ class LyapunovNumerics:
         and copy each exact between their own located switches, a stick/slip mismatch adopted
         after half the RK4 step of ``step_factor``; stick-slip law only; 6-8x cheaper per
         period: docs/lyapunov.md, section 12) or ``auto`` (the default: ``expo`` for the
-        stick-slip law, ``rk4`` otherwise:
+        stick-slip law with ``mu_s > mu_k``, ``rk4`` otherwise:
         :func:`analysis.pipeline.stages.free_copy_integrator`).  The Stefanski ladder's coupled
         copies always run on RK4.
     expo_e0 : initial (and renormalised) scaled separation of an ``expo`` free copy; ``expo``'s

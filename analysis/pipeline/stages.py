@@ -107,9 +107,7 @@ def free_copy_integrator(method: str, params: dict) -> str:
     can chatter between stick and slip at a grazing reversal (section 12)."""
     if method != "auto":
         return method
-    if integrator(method, params) == "expo" and expo_copy_supported(params):
-        return "expo"
-    return "rk4"
+    return "expo" if expo_copy_supported(params) else "rk4"
 
 
 def expo_copy_supported(params: dict) -> bool:

@@ -197,32 +197,43 @@ def _step_rows(step, h, n_per, rows, pt, tally, seg, cp):
             common.post_step(tn, _row(rows, r), pt, tally, False)
 
 
+@njit(cache=True, inline="always")
+def measure_copy(p, c0, m, step, n_per, x, y, logacc, spec, band, log_err):
+    """Copy ``m`` (state ``y``) against the drive ``x`` after output step ``step``: its scaled
+    error, recorded at period ends with the carried rescaling factors ``logacc[m]``; outside
+    the band (or flagged for period renormalisation at a period end) it is moved back to
+    ``e0``.  Returns ``(e, moved)``; a non-finite ``e`` has written ``+inf`` from this period
+    on, and the caller drops the copy."""
+    period_end = (step + 1) % n_per == 0
+    e = error(x.q, x.v, y.q, y.v, spec.inv_scale)
+    if not math.isfinite(e):
+        for k in range((step + 1) // n_per, log_err.shape[2]):
+            log_err[p, c0 + m, k] = np.inf
+        return e, False
+    if period_end:
+        k = (step + 1) // n_per
+        log_err[p, c0 + m, k] = (math.log(e) + logacc[m]) if e > 0.0 else -np.inf
+    if e > 0.0 and (e > band.hi or e < band.lo or (period_end and spec.renorm_period[c0 + m])):
+        logacc[m] += math.log(e / band.e0)
+        rescale(band.e0 / e, x, y)
+        return band.e0, True
+    return e, False
+
+
 @njit(**LEAF)
 def _measure(p, c0, step, rows, spec, band, n_per, pt, log_err):
-    """After a step: each copy's scaled error, recorded (with the carried rescaling factors) at
-    period ends; a copy outside the band (or flagged for period renormalisation at a period
-    end) is moved back to ``e0``; a copy within ``10 e0`` adopts the drive's stick/slip state;
-    a copy whose error is not finite is dropped (``+inf`` from then on)."""
+    """After a step: each copy measured (:func:`measure_copy`); a copy within ``10 e0`` adopts
+    the drive's stick/slip state; a copy whose error is not finite is dropped."""
     x = _row(rows, 0)
-    period_end = (step + 1) % n_per == 0
     for m in range(rows.logacc.shape[0]):
         r = m + 1
         if not rows.alive[r]:
             continue
         y = _row(rows, r)
-        e = error(x.q, x.v, y.q, y.v, spec.inv_scale)
+        e, _ = measure_copy(p, c0, m, step, n_per, x, y, rows.logacc, spec, band, log_err)
         if not math.isfinite(e):
             rows.alive[r] = False
-            for k in range((step + 1) // n_per, log_err.shape[2]):
-                log_err[p, c0 + m, k] = np.inf
             continue
-        if period_end:
-            k = (step + 1) // n_per
-            log_err[p, c0 + m, k] = (math.log(e) + rows.logacc[m]) if e > 0.0 else -np.inf
-        if e > 0.0 and (e > band.hi or e < band.lo or (period_end and spec.renorm_period[c0 + m])):
-            rows.logacc[m] += math.log(e / band.e0)
-            rescale(band.e0 / e, x, y)
-            e = band.e0
         if e <= 10.0 * band.e0:
             adopt_modes(x, y, pt)
 

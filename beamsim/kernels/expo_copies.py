@@ -43,7 +43,7 @@ from numba import njit
 
 from beamsim.kernels import common, expo
 from beamsim.kernels.bundles import LEAF, State, Tally, point_at
-from beamsim.kernels.copies import CopySchedule, CopySpec, adopt_modes, error, rescale
+from beamsim.kernels.copies import CopySchedule, CopySpec, adopt_modes, error, measure_copy
 from beamsim.results import N_STATS
 
 #: ``expo``'s checks per step, pattern-cache slots, and the adoption window ``tau_a`` (time
@@ -264,28 +264,16 @@ def _measure(p, c0, step, rows, spec, band, n_per, pt, tally, log_err, grid_adop
     pattern looked up again; a copy whose error is not finite is dropped (``+inf`` from then
     on)."""
     x = _row(rows, 0)
-    period_end = (step + 1) % n_per == 0
     t = ((step % n_per) + 1) * (2.0 * math.pi / pt.om) / n_per
     for m in range(rows.logacc.shape[0]):
         r = m + 1
         if not rows.alive[r]:
             continue
         y = _row(rows, r)
-        e = error(x.q, x.v, y.q, y.v, spec.inv_scale)
+        e, moved = measure_copy(p, c0, m, step, n_per, x, y, rows.logacc, spec, band, log_err)
         if not math.isfinite(e):
             rows.alive[r] = False
-            for k in range((step + 1) // n_per, log_err.shape[2]):
-                log_err[p, c0 + m, k] = np.inf
             continue
-        if period_end:
-            k = (step + 1) // n_per
-            log_err[p, c0 + m, k] = (math.log(e) + rows.logacc[m]) if e > 0.0 else -np.inf
-        moved = False
-        if e > 0.0 and (e > band.hi or e < band.lo or (period_end and spec.renorm_period[c0 + m])):
-            rows.logacc[m] += math.log(e / band.e0)
-            rescale(band.e0 / e, x, y)
-            e = band.e0
-            moved = True
         if (moved or grid_adoption) and e <= 10.0 * band.e0 and adopt_modes(x, y, pt) > 0:
             moved = True
         if moved:
