@@ -36,24 +36,24 @@ pytestmark = [pytest.mark.slow, pytest.mark.waits]
 
 @dataclass(frozen=True)
 class Case:
-    """A target of the workflow, a small config for it, and the outputs to compare."""
+    """Targets of the workflow, a small config for them, and the outputs to compare."""
 
-    target: str
+    targets: tuple[str, ...]
     outputs: tuple[str, ...]  # glob patterns under the working directory; each must match
     overrides: dict = field(default_factory=dict)  # deep-merged into config/config.yaml
     ignore_metadata: tuple[bytes, ...] = ()  # Parquet metadata keys allowed to differ
 
     def __str__(self) -> str:
-        return Path(self.target).stem
+        return "+".join(Path(t).stem for t in self.targets)
 
 
 CASES = [
-    Case("modes", ("results/modes/*/modes.parquet",
-                   "results/modes/*/characteristic_function.png",
-                   "results/modes/*/mode_shapes.png")),
-    # the regime table (its chain: compile, simulate, lyapunov, classify, table; the figure
-    # rules are plain local jobs, and each level costs a SLURM status-poll round of ~30 s)
-    Case("results/regimes/tiny.parquet", ("results/regimes/*.parquet",),
+    # the arch modes with their figures, and the regime table (its chain: modes and compiled
+    # kernels, one group job per chunk -- simulate, Lyapunov, classify: profiles/slurm/ --,
+    # the table; each level costs a SLURM status-poll round of 15-35 s here)
+    Case(("modes", "results/regimes/tiny.parquet"),
+         ("results/modes/*/modes.parquet", "results/modes/*/characteristic_function.png",
+          "results/modes/*/mode_shapes.png", "results/regimes/*.parquet"),
          overrides={"grid_file": str(ROOT / "tests" / "workflow" / "data" / "grid_tiny.yaml"),
                     "numerics": {"n_transient": 4, "n_record": 128, "n_transient_max": 4, "chunk_size": 1,
                                  "lyapunov": SHORT_LYAPUNOV}}),
@@ -67,10 +67,10 @@ def _merge(base: dict, over: dict) -> dict:
     return out
 
 
-def _snakemake(workdir: Path, config: Path, target: str, *extra: str,
+def _snakemake(workdir: Path, config: Path, targets: tuple[str, ...], *extra: str,
                env: dict) -> tuple[subprocess.CompletedProcess, float]:
     cmd = [sys.executable, "-m", "snakemake", "-s", str(ROOT / "Snakefile"), "-d", str(workdir),
-           "--configfile", str(config), *extra, target]
+           "--configfile", str(config), *extra, *targets]
     t0 = time.monotonic()
     res = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=workdir, timeout=RUN_TIMEOUT)
     return res, time.monotonic() - t0
@@ -103,11 +103,11 @@ def test_slurm_run_equals_local_run(slurm, case, tmp_path):
         (d / "config" / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
 
     env = slurm.env(extra_path=[VENV_BIN]) | {"PYTHONPATH": str(ROOT)}
-    local, t_local = _snakemake(local_dir, local_dir / "config" / "config.yaml", case.target, "-c1", env=env)
+    local, t_local = _snakemake(local_dir, local_dir / "config" / "config.yaml", case.targets, "-c1", env=env)
     assert local.returncode == 0, local.stdout[-3000:] + local.stderr[-5000:]
 
     remote, t_slurm = _snakemake(
-        slurm_dir, slurm_dir / "config" / "config.yaml", case.target,
+        slurm_dir, slurm_dir / "config" / "config.yaml", case.targets,
         "--profile", str(ROOT / "profiles" / "slurm"),
         # the local cluster: no accounting (squeue, not sacct), partition `debug`, small jobs,
         # a short first status check; everything else comes from the profile. (A command-line
@@ -120,7 +120,7 @@ def test_slurm_run_equals_local_run(slurm, case, tmp_path):
     )
     text = remote.stdout + remote.stderr
     assert remote.returncode == 0, text[-6000:] + "\n" + slurm.logs()
-    print(f"\n{case.target}: local -c1 run {t_local:.1f} s, SLURM run {t_slurm:.1f} s")
+    print(f"\n{case}: local -c1 run {t_local:.1f} s, SLURM run {t_slurm:.1f} s")
 
     # the jobs really went through sbatch and ran as SLURM jobs on the node
     submitted = text.count("has been submitted with SLURM jobid")
