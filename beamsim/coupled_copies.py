@@ -63,7 +63,8 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
                steps_per_period: int | None = None, step_factor: float = 0.5,
                n_threads: int | None = None, split: int | None = None,
                div_limit: float = 1e6, return_final: bool = False, method: str = "rk4",
-               event_checks: int = 4, pattern_cache: int = 2048, adoption: str = "window"):
+               event_checks: int = 4, pattern_cache: int = 2048, adoption: str = "window",
+               zeno_out: np.ndarray | None = None):
     """Integrate the drive and its copies for ``n_periods`` forcing periods (see the module
     docstring) and return ``ln eps`` of shape ``(P, M, n_periods + 1)`` at the period
     boundaries (``nan``: the drive diverged; ``+inf``: the copy did).
@@ -98,6 +99,11 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
         differ (:mod:`beamsim.kernels.expo_copies`): ``"window"`` once the mismatch has lasted
         ``tau_a = step_factor / (2 omega_max)``, half the RK4 pair's step (the mean delay with
         which the RK4 copies adopt it at their step ends); ``"grid"`` at every output step end.
+    zeno_out : optional ``(P, M + 1)`` integer array (rows as ``final``'s) that receives the
+        number of output steps ended by ``expo``'s Zeno guard (zero with RK4; more than
+        ``10 n_quad + 10`` switches within one step: the trajectory is accepted there and put
+        on the step's end, so a copy with a count above zero is behind its drive in time and
+        its error is not a separation; docs/lyapunov.md s.12).
     """
     P = len(prepared)
     x_start = np.ascontiguousarray(x_start, dtype=float)
@@ -122,6 +128,8 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
     renorm_period = np.ascontiguousarray(renorm_period, dtype=np.bool_)
     if method not in ("rk4", "expo"):
         raise ValueError(f"method must be 'rk4' or 'expo', got {method!r}")
+    if zeno_out is not None and np.shape(zeno_out) != (P, M + 1):
+        raise ValueError(f"zeno_out must be (P, M + 1) = {(P, M + 1)}, got {np.shape(zeno_out)}")
     if method == "expo":
         for pp in prepared:
             check_method_law("expo", pp.friction.law)
@@ -156,8 +164,13 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
         tau_a = np.array([0.5 * step_factor / pp.omega_max if adoption == "window" else 0.0
                           for pp in prepared])
         opts = expo_copies.ExpoCopyOptions(event_checks, pattern_cache, tau_a)
-        run_items(expo_copies.run_task, bundles + (opts, log_err, final), range(len(tasks)), threads)
+        zeno = np.zeros((P, M + 1), np.int64)
+        run_items(expo_copies.run_task, bundles + (opts, log_err, final, zeno), range(len(tasks)), threads)
+        if zeno_out is not None:
+            zeno_out[...] = zeno
         return (log_err, final) if return_final else log_err
+    if zeno_out is not None:
+        zeno_out[...] = 0  # RK4 locates every switch within its steps: no guard
     args = bundles + (log_err, final)
     # the rigid stick's kernel is its own (compiled only when a rigid point is run)
     for kernel, sel in ((copies.run_task, ~rigid), (copies.run_task_rigid, rigid)):

@@ -12,7 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["SimResult", "BatchResult", "TIP_COLUMNS", "ENERGY_COLUMNS", "N_FLAGS", "N_STATS"]
+__all__ = ["SimResult", "BatchResult", "TIP_COLUMNS", "ENERGY_COLUMNS", "N_FLAGS", "N_STATS",
+           "ZENO_FALLBACK"]
 
 #: columns of ``SimResult.poincare_tip`` / the dense history
 TIP_COLUMNS = ("w_tip", "u1_tip", "u2_tip", "load_point")
@@ -30,7 +31,12 @@ FLAG_STICK_FRACTION_ALL = 6  #: stuck fraction over the whole run
 FLAG_N_PATTERNS = 7        #: expo: stick patterns eigen-decomposed
 FLAG_N_EVENTS = 8          #: located stick/slip switches (RK4, expo)
 FLAG_N_CHECKS = 9          #: expo: event-function checks
-N_FLAGS = 10
+FLAG_N_ZENO = 10           #: expo: steps ended by the Zeno guard (the state taken to the step end)
+N_FLAGS = 11
+
+#: the integrator recorded for a run that asked for ``expo`` and was run on RK4 because an
+#: ``expo`` trajectory met the Zeno guard (``n_zeno > 0``; the pipeline's stages do this)
+ZENO_FALLBACK = "rk4 (expo met its Zeno guard)"
 
 # ------------------------------------------------------------------------ running sums (N_STATS,)
 STAT_SLIPPED = 0           #: 1.0 once any element slipped
@@ -51,7 +57,7 @@ def flag_fields(flags: np.ndarray) -> dict:
                 stick_fraction=float(flags[FLAG_STICK_FRACTION]),
                 stick_fraction_all=float(flags[FLAG_STICK_FRACTION_ALL]),
                 n_patterns=int(flags[FLAG_N_PATTERNS]), n_events=int(flags[FLAG_N_EVENTS]),
-                n_checks=int(flags[FLAG_N_CHECKS]))
+                n_checks=int(flags[FLAG_N_CHECKS]), n_zeno=int(flags[FLAG_N_ZENO]))
 
 
 @dataclass
@@ -69,7 +75,9 @@ class SimResult:
     final_state : (2 n + 2 n_quad,) state at the end of the run: q, v, Jenkins slips z, and the
         stick/slip state of each element (0 stuck, +-1 slipping); see
         :func:`beamsim.simulate.restart_params`.
-    n_patterns, n_events, n_checks : integrator counters (see the ``FLAG_N_*`` columns).
+    n_patterns, n_events, n_checks, n_zeno : integrator counters (see the ``FLAG_N_*``
+        columns); ``n_zeno > 0``: ``expo`` met its Zeno guard, the trajectory is not to be
+        trusted there (docs/lyapunov.md s.12).
     """
 
     params: dict
@@ -96,6 +104,7 @@ class SimResult:
     n_patterns: int = 0
     n_events: int = 0
     n_checks: int = 0
+    n_zeno: int = 0
     dense_t: np.ndarray | None = None
     dense: np.ndarray | None = None
     final_state: np.ndarray | None = None

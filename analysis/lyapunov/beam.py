@@ -47,6 +47,7 @@ from analysis.lyapunov.block_statistics import UNDETERMINED, BlockPlan, LLEStati
 from analysis.lyapunov.result import LLEResult
 from analysis.lyapunov.sync_rule import coupling_cap, exp_clip, perturbation, sync_test, zero_tolerance
 from analysis.lyapunov.sync_search import sync_search
+from beamsim.results import ZENO_FALLBACK
 
 __all__ = ["BeamLLE", "attractor_scale", "beam_benettin", "beam_lle", "initial_offset",
            "response_scale"]
@@ -64,6 +65,10 @@ class BeamLLE:
     benettin: LLEResult
     period: float
     statistics: LLEStatistics | None = None
+    #: integrator of the free copy: ``"expo"``, ``"rk4"``, or :data:`ZENO_FALLBACK` (``expo``
+    #: asked for, the point run on RK4 because an ``expo`` trajectory met the Zeno guard)
+    free_copy: str = "rk4"
+
 
 
 def attractor_scale(poincare_state: np.ndarray, q_ref: np.ndarray, omega: float) -> np.ndarray:
@@ -176,14 +181,42 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
         switches (:mod:`beamsim.kernels.expo_copies`; stick-slip law; ``expo``'s event
         location has a noise floor near ``1e-6`` of the attractor, so ``free_e0`` must stay
         well above it: docs/lyapunov.md, section 12).  The coupled copies of the Stefanski
-        ladder always run on RK4 (``e0``, ``steps_per_period``, ``step_factor``).
+        ladder always run on RK4 (``e0``, ``steps_per_period``, ``step_factor``).  A point
+        whose ``expo`` drive or copy meets ``expo``'s Zeno guard (a switch cascade cut short
+        at a step end, which leaves that trajectory behind in time) is run again as with
+        ``free_method="rk4"`` (``free_e0 = e0``); its :attr:`BeamLLE.free_copy` says so
+        (:data:`ZENO_FALLBACK`).
     """
+    x_start = np.asarray(x_start, dtype=float)
+    scales = np.asarray(scales, dtype=float)
+    kw = dict(n_periods=n_periods, e0=e0, batch=batch, rtol=rtol, max_rounds=max_rounds,
+              window=window, k_align=k_align, seed=seed, band=band, with_benettin=with_benettin,
+              zero_first=zero_first, seed_ladder=seed_ladder, steps_per_period=steps_per_period,
+              step_factor=step_factor, n_threads=n_threads, plan=plan)
+    out, guarded = _estimates(prepared, x_start, scales, free_method=free_method, free_e0=free_e0,
+                              free_steps=free_steps, **kw)
+    if guarded.any():  # only expo has the guard: these points as with free_method="rk4"
+        idx = np.flatnonzero(guarded)
+        rerun, _ = _estimates([prepared[i] for i in idx], x_start[idx], scales[idx], free_method="rk4",
+                              free_e0=None, free_steps=None, **kw)
+        for i, est in zip(idx, rerun):
+            est.free_copy = ZENO_FALLBACK
+            out[i] = est
+    return out
+
+
+def _estimates(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_periods: int, e0: float,
+               batch: int, rtol: float, max_rounds: int, window: float, k_align: int, seed: int,
+               band: tuple[float, float], with_benettin: bool, zero_first: bool, seed_ladder: bool,
+               steps_per_period: int | None, step_factor: float, n_threads: int | None,
+               plan: BlockPlan | None, free_method: str, free_e0: float | None,
+               free_steps: int | None) -> tuple[list, np.ndarray]:
+    """:func:`beam_lle` with the free copy on ``free_method`` whatever happens: the estimates
+    (``None`` for a point whose ``expo`` pair met the Zeno guard) and which points did."""
     from beamsim.coupled_copies import run_copies
     from beamsim.point import period_steps
 
     P = len(prepared)
-    x_start = np.asarray(x_start, dtype=float)
-    scales = np.asarray(scales, dtype=float)
     inv = 1.0 / scales
     offs = [initial_offset(prepared[i], scales[i], e0, seed) for i in range(P)]
     periods = [2 * math.pi / pp.omega for pp in prepared]
@@ -208,15 +241,21 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
     t_run = time.perf_counter()
     off0 = np.stack([o[None, :] for o in free_offs])
     first = n_periods if plan is None else max(n_periods, plan.first_periods)
+    zeno = np.zeros((P, 2), np.int64)
     le0, fin = run_copies(prepared, x_start, off0, np.zeros((P, 1)), inv,
                           renorm_period=np.full((P, 1), with_benettin), return_final=True,
-                          **dict(free_kw, n_periods=first))
+                          zeno_out=zeno, **dict(free_kw, n_periods=first))
     t_round0 = time.perf_counter() - t_run
-    stats = _long_records(prepared, le0[:, 0], fin, inv, periods, plan, free_kw) if plan else [None] * P
+    guarded = zeno.sum(axis=1) > 0
+    stats = (_long_records(prepared, le0[:, 0], fin, inv, periods, plan, free_kw, guarded) if plan
+             else [None] * P)
     le0 = le0[:, :, :n_periods + 1]
 
     out = []
     for i, pp in enumerate(prepared):
+        if guarded[i]:
+            out.append(None)
+            continue
         T, t = periods[i], t_all[i]
         t_s = t[1:]
         h = T / period_steps(pp, "rk4", steps_per_period, step_factor)
@@ -242,14 +281,19 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
                          ladder_hint=ben.value if seed_ladder else None)
         st.runtime = time.perf_counter() - t_pt + t_round0 / P
         st.extras["n_batches"] = n_runs[0]
-        out.append(BeamLLE(stefanski=st, benettin=ben, period=T, statistics=stats[i]))
-    return out
+        out.append(BeamLLE(stefanski=st, benettin=ben, period=T, statistics=stats[i],
+                           free_copy=free_method))
+    return out, guarded
 
 
 def _long_records(prepared: list, first: np.ndarray, fin: np.ndarray, inv: np.ndarray,
-                  periods: list[float], plan: BlockPlan, run_kw: dict) -> list[LLEStatistics]:
+                  periods: list[float], plan: BlockPlan, run_kw: dict,
+                  guarded: np.ndarray) -> list[LLEStatistics]:
     """Block statistics of every point's renormalised record ``first`` (``(P, K + 1)``),
-    continuing the undetermined ones one block at a time from the end states ``fin``."""
+    continuing the undetermined ones one block at a time from the end states ``fin``.
+    ``guarded`` (``(P,)`` bool, updated in place): points whose ``expo`` pair met the Zeno
+    guard, in ``first`` or in a continuation; they are not continued (their statistics are
+    not used)."""
     from beamsim.coupled_copies import run_copies
 
     n, nq = prepared[0].model.n, prepared[0].model.n_quad
@@ -258,14 +302,16 @@ def _long_records(prepared: list, first: np.ndarray, fin: np.ndarray, inv: np.nd
     stats = [plan.statistics(r, T) for r, T in zip(records, periods)]
     fin = fin.copy()
     while True:
-        todo = [i for i, st in enumerate(stats) if st.verdict == UNDETERMINED
+        todo = [i for i, st in enumerate(stats) if st.verdict == UNDETERMINED and not guarded[i]
                 and records[i].size - 1 < plan.max_periods and np.all(np.isfinite(fin[i]))]
         if not todo:
             return stats
         off = fin[todo, 1:2, :cont] - fin[todo, 0:1, :cont]
+        zeno = np.zeros((len(todo), 2), np.int64)
         le, f = run_copies([prepared[i] for i in todo], fin[todo, 0], off, np.zeros((len(todo), 1)),
                            inv[todo], renorm_period=np.ones((len(todo), 1), np.bool_),
-                           return_final=True, **dict(run_kw, n_periods=plan.block))
+                           return_final=True, zeno_out=zeno, **dict(run_kw, n_periods=plan.block))
+        guarded[np.asarray(todo)[zeno.sum(axis=1) > 0]] = True
         for k, i in enumerate(todo):
             rec = le[k, 0]
             records[i] = np.concatenate([records[i], records[i][-1] + (rec[1:] - rec[0])])

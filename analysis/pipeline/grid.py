@@ -25,11 +25,13 @@ import numpy as np
 from analysis.pipeline.config import Numerics, as_numerics
 
 #: bump when a code change alters results for unchanged parameters (invalidates all ids)
-RESULTS_VERSION = "10"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
+RESULTS_VERSION = "11"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
 #                        conjugate pairs with damping, kernels with reassociated sums; 8: the
 #                        continuation check (the record kept is the continued one); 9: the
 #                        Lyapunov stage's free copy on expo (numerics.lyapunov.method: auto);
-#                        10: auto keeps the RK4 free copy where mu_s = mu_k
+#                        10: auto keeps the RK4 free copy where mu_s = mu_k; 11: a point whose
+#                        expo run or expo pair meets expo's Zeno guard is run on RK4
+#                        (simulate record's method, lle_free_copy)
 
 
 def _canonical(value):

@@ -11,12 +11,14 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
 
 from analysis.pipeline.config import Numerics, as_numerics
 from analysis.pipeline.store import PointStore
+from beamsim.results import ZENO_FALLBACK
 
 log = logging.getLogger("regimes")
 
@@ -136,7 +138,12 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int) -> list[dict]:
     checked again; a check run that diverges is kept (the point is ``diverged``).
     ``continuation_reason`` of the record is the last failed check's reason (``""`` when the
     last check passed or none ran): :func:`unsettled_reason` reads it.  A point's continuation
-    depends on its own records only (same result in any batch)."""
+    depends on its own records only (same result in any batch).
+
+    Zeno fallback: a point whose ``expo`` runs met ``expo``'s Zeno guard (a stick/slip switch
+    cascade cut short and the state put on the step end: a jump in time,
+    ``SimResult.n_zeno``) is run again, all of it, on RK4 (``step_factor``); its ``method``
+    is then :data:`ZENO_FALLBACK`."""
     from analysis.regimes import continuation_reason, transient_reason
     from beamsim.simulate import restart_params, simulate_batch
 
@@ -144,6 +151,7 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int) -> list[dict]:
               steps_per_period=nm.steps_per_period, step_factor=nm.step_factor, n_threads=threads)
     results = list(simulate_batch([p["params"] for p in points], n_transient=nm.n_transient,
                                   **kw).results)
+    zeno = [r.n_zeno for r in results]  # steps ended by expo's Zeno guard, over every run
     used = [nm.n_transient] * len(points)
     t_start = [0.0] * len(points)  # time of the kept run's start
     first_slip = [(r.slipped, r.t_first_slip) for r in results]
@@ -192,8 +200,19 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int) -> list[dict]:
                 used[i] += nm.n_record + n_tr
                 t_start[i] = t0
                 results[i] = r
+                zeno[i] += r.n_zeno
+    redo = [i for i, z in enumerate(zeno) if z > 0]
+    if redo:
+        log.info("expo met its Zeno guard at %d point(s) (%s steps): run on RK4",
+                 len(redo), [zeno[i] for i in redo])
+        rk4 = replace(nm, method="rk4", steps_per_period=None)
+        fallback = dict(zip(redo, simulate_runs([points[i] for i in redo], rk4, threads)))
     out = []
-    for r, n_tr, t_run, (slipped, t_slip), why in zip(results, used, t_start, first_slip, why_continued):
+    for i, (r, n_tr, t_run, (slipped, t_slip), why) in enumerate(
+            zip(results, used, t_start, first_slip, why_continued)):
+        if i in redo:
+            out.append(fallback[i] | {"method": ZENO_FALLBACK})
+            continue
         energy = r.energy
         w_in = float(energy[-1, 0] - energy[0, 0])
         residual = r.energy_residual[-1] - r.energy_residual[0]
@@ -282,7 +301,8 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
         if r["diverged"] or not (np.all(np.isfinite(x)) and np.all(np.isfinite(fs))):
             recs[i] = {"lle_stefanski": np.nan, "lle_stefanski_verdict": "not computed: diverged",
                        "lle_stefanski_lo": np.nan, "lle_stefanski_hi": np.nan,
-                       "lle_benettin": np.nan, "lle_nolds": np.nan, **_no_statistics("diverged")}
+                       "lle_benettin": np.nan, "lle_nolds": np.nan, "lle_free_copy": "not run",
+                       **_no_statistics("diverged")}
         else:
             good.append(i)
     if good:
@@ -364,7 +384,7 @@ def _lyapunov_record(r: pd.Series, est, exemption: str | None, lopt, pid: str) -
     st = est.stefanski
     out = {"lle_stefanski": st.value, "lle_stefanski_verdict": st.verdict,
            "lle_stefanski_lo": st.bracket[0], "lle_stefanski_hi": st.bracket[1],
-           "lle_benettin": est.benettin.value, "lle_nolds": lle_nolds}
+           "lle_benettin": est.benettin.value, "lle_nolds": lle_nolds, "lle_free_copy": est.free_copy}
     bs = est.statistics
     if bs is not None:
         return out | {"lle_mean": bs.mean, "lle_se": bs.se, "lle_lo": bs.lo, "lle_hi": bs.hi,

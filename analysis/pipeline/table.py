@@ -22,7 +22,8 @@ TABLE_COLUMNS = (
     "lle_stefanski_lo", "lle_stefanski_hi", "n_transient_used", "K", "spectral_growth", "n_clusters",
     "slipped",
     "t_first_slip", "stick_fraction", "diss_per_cycle", "f0", "f_cr", "omega", "Omega", "lam_f",
-    "diverged", "settled", "energy_residual_rel", "lle_stefanski_verdict", "reason",
+    "diverged", "settled", "energy_residual_rel", "lle_stefanski_verdict", "method", "lle_free_copy",
+    "reason",
 )
 
 

@@ -29,7 +29,7 @@ from numba import njit
 
 from beamsim.kernels import common
 from beamsim.kernels.bundles import LEAF, point_at, schedule_at
-from beamsim.results import FLAG_N_CHECKS, FLAG_N_EVENTS, FLAG_N_PATTERNS
+from beamsim.results import FLAG_N_CHECKS, FLAG_N_EVENTS, FLAG_N_PATTERNS, FLAG_N_ZENO
 
 #: eigen-decompositions of ``C`` stick patterns: pattern bit keys, eigenvalues ``lam``, ``V``,
 #: ``V^-1``, the slips and slip rates of the modes ``SVq = S V_q``, ``SVv = S V_v``, the load
@@ -52,7 +52,9 @@ ExpoWork = namedtuple("ExpoWork", ("free", "stuck", "xr", "zeta0", "zeta", "ztmp
                                    "r1", "r2", "zdot", "sbuf", "sdbuf", "fcur", "fprev", "rate",
                                    "cnt", "n_sub"))
 
-_FILLED, _N_EIG, _N_EVENTS, _N_CHECKS = 0, 1, 2, 3
+_FILLED, _N_EIG, _N_EVENTS, _N_CHECKS, _N_ZENO = 0, 1, 2, 3, 4
+#: length of the counters ``cnt``
+N_COUNTERS = 5
 
 
 @njit(cache=True)
@@ -570,7 +572,7 @@ def new_scratch(pt, n_sub, cnt):
 @njit(cache=True)
 def _new_work(pt, n_sub, cache_size):
     """Empty pattern cache and scratch of a point."""
-    return new_cache(pt, cache_size), new_scratch(pt, n_sub, np.zeros(4, np.int64))
+    return new_cache(pt, cache_size), new_scratch(pt, n_sub, np.zeros(N_COUNTERS, np.int64))
 
 
 @njit(cache=True, inline="always")
@@ -632,7 +634,8 @@ def _step(t0, t_end, slot, cache, wk, x, pt, tally):
         guard += 1
         slot = -1
         if guard > 10 * x.z.shape[0] + 10:
-            # Zeno guard: accept the state, resume on the grid
+            # Zeno guard: accept the state, resume on the grid (counted: the run is flagged)
+            wk.cnt[_N_ZENO] += 1
             return t_end, slot
 
 
@@ -660,6 +663,7 @@ def expo_point(p, pt, sched, x0, n_sub, cache_size, out):
     out.flags[p, FLAG_N_PATTERNS] = wk.cnt[_N_EIG]
     out.flags[p, FLAG_N_EVENTS] = wk.cnt[_N_EVENTS]
     out.flags[p, FLAG_N_CHECKS] = wk.cnt[_N_CHECKS]
+    out.flags[p, FLAG_N_ZENO] = wk.cnt[_N_ZENO]
 
 
 @njit(cache=True, nogil=True)

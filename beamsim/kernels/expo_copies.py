@@ -104,6 +104,7 @@ def _drive_step(t0, t_end, slot, cache, wk, x, pt, tally, log):
         slot = -1
         guard += 1
         if guard > 10 * x.z.shape[0] + 10:
+            wk.cnt[expo._N_ZENO] += 1
             break
     log.count[0] = k
     return slot
@@ -213,7 +214,8 @@ def _adopt_due(r, t, tau_a, rows, log, cache_x, pt, wk, spec, band, scratch):
 def _copy_step(r, t0, t1, rows, work, pt, tally, opts, spec, band):
     """Advance copy ``r`` over the output step ``[t0, t1]`` (the drive already is): its own
     switches, a split at every switch of the drive (its mismatches are noted there) and at
-    every adoption that falls due (``opts.tau_a > 0``).  ``work``: the drive's log, the two
+    every adoption that falls due (``opts.tau_a > 0``).  Returns True if the step was ended
+    by the Zeno guard.  ``work``: the drive's log, the two
     pattern caches (drive, copies), every row's scratch and three scratch vectors."""
     log, caches, wks, scratch = work
     cache_x, cache_y = caches
@@ -241,7 +243,9 @@ def _copy_step(r, t0, t1, rows, work, pt, tally, opts, spec, band):
                 rows.slots[r] = -1
                 guard += 1
                 if guard > 10 * y.z.shape[0] + 10:
-                    return  # Zeno guard, as expo's: accept the state, resume on the grid
+                    # Zeno guard, as expo's: accept the state, resume on the grid (counted:
+                    # the copy is then behind the drive in time, its error meaningless)
+                    return True
                 if tau_a > 0.0:
                     _note_mismatches(r, t_reached, rows, log)
                 t = t_reached
@@ -253,6 +257,7 @@ def _copy_step(r, t0, t1, rows, work, pt, tally, opts, spec, band):
                 common.post_step(t, y, pt, tally, False, True)
                 rows.slots[r] = -1
                 _note_mismatches(r, t, rows, log)
+    return False
 
 
 @njit(**LEAF)
@@ -304,19 +309,21 @@ def _new_rows(x_start, spec, c0, c1, n, nq):
 
 
 @njit(cache=True)
-def expo_copies_task(p, c0, c1, pt, sch, x_start, spec, band, opts, log_err, final):
+def expo_copies_task(p, c0, c1, pt, sch, x_start, spec, band, opts, log_err, final, zeno):
     """Integrate point ``p``'s drive with its free copies ``c0 .. c1 - 1`` for
     ``sch.n_periods`` periods of ``sch.n_per`` steps (the output grid of ``expo``: the copies
     are measured at step ends), writing ``ln eps`` at the period boundaries into
     ``log_err[p, c0:c1]`` (``nan``: the drive diverged; ``+inf``: the copy did) and the end
     states ``(q, v, z, mode)`` into ``final`` as :func:`beamsim.kernels.copies.copies_task`
-    does.  ``opts``: :data:`ExpoCopyOptions`."""
+    does, and into ``zeno[p, r]`` (rows as ``final``'s) the number of output steps that the
+    Zeno guard ended (row 0, the drive: only by the task with ``c0 = 0``).  ``opts``:
+    :data:`ExpoCopyOptions`."""
     n = pt.Mm.shape[0]
     nq = pt.S.shape[0]
     rows = _new_rows(x_start, spec, c0, c1, n, nq)
     R = c1 - c0 + 1
     caches = (expo.new_cache(pt, opts.cache_size), expo.new_cache(pt, opts.cache_size))
-    cnts = (np.zeros(4, np.int64), np.zeros(4, np.int64))
+    cnts = (np.zeros(expo.N_COUNTERS, np.int64), np.zeros(expo.N_COUNTERS, np.int64))
     wks = [expo.new_scratch(pt, opts.n_sub, cnts[0] if r == 0 else cnts[1]) for r in range(R)]
     log = _new_log(2 * n, nq, 10 * nq + 12)
     scratch = (np.empty(n), np.empty(n), np.empty(nq))
@@ -339,8 +346,8 @@ def expo_copies_task(p, c0, c1, pt, sch, x_start, spec, band, opts, log_err, fin
                     log_err[p, c0 + m, k] = np.nan
             return
         for r in range(1, R):
-            if rows.alive[r]:
-                _copy_step(r, t0, t1, rows, work, pt, tally, opts, spec, band)
+            if rows.alive[r] and _copy_step(r, t0, t1, rows, work, pt, tally, opts, spec, band):
+                zeno[p, c0 + r] += 1
         _measure(p, c0, step, rows, spec, band, n_per, pt, tally, log_err, opts.tau_a <= 0.0)
         if (step + 1) % n_per == 0:
             # every row starts a period from its state (q, v, z, mode), projected afresh, as a
@@ -351,6 +358,8 @@ def expo_copies_task(p, c0, c1, pt, sch, x_start, spec, band, opts, log_err, fin
                     for j in range(nq):
                         if rows.mstart[r, j] >= 0.0:
                             rows.mstart[r, j] -= n_per * h
+    if c0 == 0:
+        zeno[p, 0] = cnts[0][expo._N_ZENO]
     for r in range(R):
         if r == 0 and c0 != 0:
             continue
@@ -364,7 +373,7 @@ def expo_copies_task(p, c0, c1, pt, sch, x_start, spec, band, opts, log_err, fin
 
 
 @njit(cache=True, nogil=True)
-def run_task(tasks, stk, sch, x_start, spec, band, opts, log_err, final, k):
+def run_task(tasks, stk, sch, x_start, spec, band, opts, log_err, final, zeno, k):
     """Task ``k`` ``(point, first copy, end copy)`` of ``tasks`` (an item of
     :func:`beamsim.kernels.thread_pool.run_items`); bundles stacked over the points as in
     :func:`beamsim.kernels.copies.run_task` (``opts.tau_a`` per point).  The point carries its
@@ -374,4 +383,4 @@ def run_task(tasks, stk, sch, x_start, spec, band, opts, log_err, final, k):
                      CopySchedule(sch.h[p], sch.n_per[p], sch.n_periods, sch.div_limit[p]),
                      x_start[p], CopySpec(spec.offsets[p], spec.d[p], spec.renorm_period[p],
                                           spec.inv_scale[p]), band,
-                     ExpoCopyOptions(opts.n_sub, opts.cache_size, opts.tau_a[p]), log_err, final)
+                     ExpoCopyOptions(opts.n_sub, opts.cache_size, opts.tau_a[p]), log_err, final, zeno)

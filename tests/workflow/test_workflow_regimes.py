@@ -64,11 +64,13 @@ def test_outputs_table_schema_and_metadata(first_run):
     table = pd.read_parquet(out / "tiny.parquet")
     assert list(table["f0_rel"]) == [0.5, 3.0]  # grid order
     for col in ("point_id", "label", "period", "lle_stefanski", "lle_benettin", "lle_nolds",
-                "lle_stefanski_verdict", "K",
+                "lle_stefanski_verdict", "method", "lle_free_copy", "K",
                 "slipped", "t_first_slip", "stick_fraction", "diss_per_cycle", "diverged", "settled",
                 "params_json", "poincare_w_tip", "reason"):
         assert col in table.columns, col
     assert set(table["label"]) <= {"periodic", "quasi-periodic", "chaotic", "diverged", "unsettled"}
+    # the tiny grid's mu_s > mu_k points: expo reference runs and expo free copies, no Zeno guard
+    assert list(table["method"]) == ["expo", "expo"] and list(table["lle_free_copy"]) == ["expo", "expo"]
     assert table["point_id"].is_unique
     meta = read_regime_metadata(out / "tiny.parquet")
     assert len(meta["config_hash"]) == 16 and meta["grid_name"] == "tiny"

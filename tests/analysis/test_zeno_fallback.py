@@ -1,0 +1,119 @@
+"""expo's Zeno guard is counted, and the pipeline runs a point that meets it on RK4.
+
+At ``mu_s = mu_k`` an element that sticks starts exactly at its slip limit; at a grazing
+reversal ``expo`` can then switch it stick/slip every ~1e-9 time units until its Zeno guard
+(``10 n_quad + 10`` switches in one step) puts the state on the step's end: a jump in time
+(docs/lyapunov.md, section 12). The point is the paper's Fig 9a point (``Omega`` 1.5,
+``f0_rel`` 6.67, ``mu = 0.3``) with two modes, a stable period-1 orbit.
+
+Independent evidence that the guard is a defect and not physics: the RK4 pair (another
+integrator, its switches located within fixed steps) reads a zero exponent there, while the
+``expo`` pair, whose copy met the guard, grows by more than 5 in ``ln eps`` per period. Checked:
+the counters (``SimResult.n_zeno``, ``run_copies(zeno_out=...)``) see the guard there and not at a
+``mu_s > mu_k`` point; ``beam_lle`` and the simulate stage then give exactly the RK4 values and
+record the fallback."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from analysis.lyapunov.beam import attractor_scale, beam_lle, initial_offset, response_scale
+from analysis.pipeline.config import Numerics
+from analysis.pipeline.stages import lyapunov_points, poincare_array, simulate_points
+from beamsim.coupled_copies import run_copies
+from beamsim.results import ZENO_FALLBACK
+from beamsim.simulate import prepare_point, simulate_batch
+
+#: Fig 9a's point with two modes and the shipped interface dashpot: mu_s = mu_k, a stable
+#: period-1 orbit with slip (the expo copy meets the guard, the reference run does not)
+EQUAL = dict(n_modes=2, mu_s=0.3, mu_k=0.3, Omega=1.5, f0_rel=6.66666666667, interface_viscosity=0.0939)
+#: the same point with mu_s = 1.5 mu_k (the default grid's ratio)
+ABOVE = dict(EQUAL, mu_s=0.45)
+#: EQUAL without the dashpot (the paper's beam has none): here expo's reference run meets the guard
+UNDAMPED = dict(EQUAL, interface_viscosity=0.0)
+
+
+@pytest.fixture(scope="module")
+def settled():
+    """RK4 reference runs of both points (RK4 has no guard), restart states and scales."""
+    res = simulate_batch([EQUAL, ABOVE], n_transient=30, n_record=16, method="rk4", step_factor=1.0,
+                         n_threads=2)
+    prepared = [prepare_point(**p) for p in (EQUAL, ABOVE)]
+    scales = np.stack([attractor_scale(r.poincare_state, response_scale(pp), pp.omega)
+                       for r, pp in zip(res, prepared)])
+    return res, prepared, scales
+
+
+def test_the_reference_run_counts_the_guard():
+    """``expo``'s reference run of the undamped point meets the guard at ``mu_s = mu_k``, not at
+    ``mu_s > mu_k``; RK4 never (no guard)."""
+    eq, above = simulate_batch([UNDAMPED, dict(UNDAMPED, mu_s=0.45)], n_transient=30, n_record=16,
+                               method="expo", n_threads=2)
+    assert eq.n_zeno > 0 and above.n_zeno == 0, (eq.n_zeno, above.n_zeno)
+    rk = simulate_batch([UNDAMPED], n_transient=2, n_record=2, method="rk4", step_factor=1.0, n_threads=1)
+    assert rk[0].n_zeno == 0
+
+
+def test_the_copies_count_the_guard_and_their_reading_is_then_wrong(settled):
+    """The ``expo`` pair's copy meets the guard at ``mu_s = mu_k`` and its separation then grows
+    by more than 5 per period on a stable orbit, where the RK4 pair reads about zero; at
+    ``mu_s > mu_k`` no row meets the guard. ``zeno_out`` is zero for an RK4 run."""
+    res, prepared, scales = settled
+    rates = {}
+    for k, (r, pp, sc) in enumerate(zip(res, prepared, scales)):
+        for method, e0 in (("expo", 1e-4), ("rk4", 1e-6)):
+            off = initial_offset(pp, sc, e0, 0)[None, None]
+            zeno = np.full((1, 2), -1, np.int64)
+            le = run_copies([pp], r.final_state[None], off, np.zeros((1, 1)), (1 / sc)[None], n_periods=6,
+                            e0=e0, band=(1e-2, 1e2), method=method, renorm_period=np.ones((1, 1), bool),
+                            zeno_out=zeno)
+            rates[k, method] = float(np.mean(np.diff(le[0, 0])))
+            if method == "rk4" or k == 1:
+                assert (zeno == 0).all(), (k, method, zeno)
+            else:
+                assert zeno[0, 1] > 0, zeno  # the copy
+    assert rates[0, "expo"] > 5.0, rates
+    assert abs(rates[0, "rk4"]) < 1.0 and abs(rates[1, "expo"]) < 1.0, rates
+    with pytest.raises(ValueError, match="zeno_out"):
+        run_copies([prepared[0]], res[0].final_state[None], np.zeros((1, 1, off.shape[-1])),
+                   np.zeros((1, 1)), (1 / scales[0])[None], n_periods=1, e0=1e-4, method="expo",
+                   zeno_out=np.zeros((1, 1), np.int64))
+
+
+def test_beam_lle_runs_a_guarded_point_on_rk4(settled):
+    """``free_method="expo"``: the point that met the guard gets exactly the RK4 pair's
+    estimates (as ``free_method="rk4"``) and says so; the other keeps its ``expo`` pair."""
+    res, prepared, scales = settled
+    x = np.stack([r.final_state for r in res])
+    kw = dict(n_periods=6, n_threads=2)
+    expo = beam_lle(prepared, x, scales, free_method="expo", free_e0=1e-4, **kw)
+    rk4 = beam_lle(prepared[:1], x[:1], scales[:1], free_method="rk4", **kw)[0]
+    assert expo[0].free_copy == ZENO_FALLBACK and expo[1].free_copy == "expo"
+    assert expo[0].benettin.value == rk4.benettin.value
+    assert expo[0].stefanski.value == rk4.stefanski.value
+    assert expo[0].stefanski.verdict == rk4.stefanski.verdict
+    assert not rk4.stefanski.chaotic, rk4.stefanski.verdict  # a stable orbit
+
+
+def test_the_stages_record_the_fallback(tmp_path):
+    """Through the pipeline's stages (``method: auto``: ``expo`` reference runs): the undamped
+    point's simulate record, whose ``expo`` run met the guard, is the RK4 stage's record, marked;
+    the others' are ``expo``'s. With ``lyapunov.method: expo`` the free copy of the point at
+    ``mu_s = mu_k`` falls back to RK4, the one at ``mu_s > mu_k`` stays on ``expo``."""
+    nm = Numerics(n_transient=30, n_record=128, n_transient_max=30, continuation_check=False)
+    pts = [{"point_id": k, "params": v} for k, v in (("u", UNDAMPED), ("eq", EQUAL), ("above", ABOVE))]
+    sim = simulate_points(pts, nm, str(tmp_path / "a"), threads=2).set_index("point_id")
+    ref = simulate_points(pts[:1], replace(nm, method="rk4"), str(tmp_path / "b"), threads=2)
+    ref = ref.set_index("point_id")
+    assert list(sim["method"]) == [ZENO_FALLBACK, "expo", "expo"]
+    a, b = sim.loc["u"], ref.loc["u"]
+    assert np.array_equal(poincare_array(a["poincare_state"]), poincare_array(b["poincare_state"]))
+    assert np.array_equal(np.asarray(a["final_state"]), np.asarray(b["final_state"]))
+    assert a["n_transient_used"] == b["n_transient_used"] and a["stick_fraction"] == b["stick_fraction"]
+    expo_pair = replace(nm, lyapunov=replace(nm.lyapunov, method="expo"))
+    lya = lyapunov_points(pts[1:], sim.reset_index(), expo_pair, str(tmp_path / "c"), threads=2)
+    lya = lya.set_index("point_id")
+    assert list(lya["lle_free_copy"]) == [ZENO_FALLBACK, "expo"]
