@@ -18,9 +18,9 @@ from analysis.pipeline.config import Numerics, as_numerics
 from analysis.pipeline.grid import point_id
 from analysis.pipeline.stages import (
     classify_points,
-    integrator,
     lle_resolution,
     lyapunov_points,
+    reference_run,
     simulate_points,
 )
 
@@ -43,8 +43,6 @@ def dense_history(params: dict, numerics: Numerics, n_transient: int, n_record: 
     ``samples_per_period``).  ``start``: a state to start from (a reference run's
     ``final_state``: the forcing is periodic and runs end on period boundaries, so the history
     continues that run, up to the integrator's switch-location tolerance)."""
-    from beamsim.simulate import simulate
-
     if start is not None:
         from beamsim.point import prepare_point
 
@@ -56,9 +54,8 @@ def dense_history(params: dict, numerics: Numerics, n_transient: int, n_record: 
     spp = numerics.steps_per_period
     if spp is not None:
         spp = max(samples_per_period, int(np.ceil(spp / samples_per_period) * samples_per_period))
-    r = simulate(n_transient=n_transient, n_record=n_record, method=integrator(numerics.method, params),
-                 steps_per_period=spp, step_factor=numerics.step_factor,
-                 dense_per_period=samples_per_period, **params)
+    r = reference_run(params, numerics, n_transient=n_transient, n_record=n_record, steps_per_period=spp,
+                      dense_per_period=samples_per_period)
     t = r.dense_t
     first = 0 if n_show is None else max(0, len(t) - n_show * samples_per_period - 1)
     keep = slice(first, len(t))
@@ -112,7 +109,6 @@ def measure_runs(runs: list[PaperRun], numerics: Numerics | dict, store_root: st
     transient : Poincare tip samples from rest over ``extra['n_periods']`` periods.
     """
     from analysis.pipeline.grid import canonical_json
-    from beamsim.simulate import simulate
 
     nm = as_numerics(numerics)
     rows = []
@@ -134,9 +130,8 @@ def measure_runs(runs: list[PaperRun], numerics: Numerics | dict, store_root: st
         elif r.kind == "history":
             rows[i].update(dense_history(r.params, nm, 0, r.extra["n_periods"], samples_per_period))
         elif r.kind == "transient":
-            res = simulate(n_transient=0, n_record=r.extra["n_periods"],
-                           method=integrator(nm.method, r.params), steps_per_period=nm.steps_per_period,
-                           step_factor=nm.step_factor, **r.params)
+            res = reference_run(r.params, nm, n_transient=0, n_record=r.extra["n_periods"],
+                                steps_per_period=nm.steps_per_period)
             rows[i].update(poincare_tip=res.poincare_tip.tolist(), omega=res.omega, f0=res.f0, f_cr=res.f_cr,
                            slipped=res.slipped)
         log.info("paper %s: run %d / %d done (%s, %s, %s)", r.item, i + 1, len(runs), r.kind, r.case, r.law)

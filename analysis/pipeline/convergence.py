@@ -109,11 +109,12 @@ def refine(refinement: str, params: dict, numerics: Numerics | dict) -> tuple[di
     ly = nm.lyapunov
     if refinement == "step":
         method = integrator(nm.method, p)
-        if nm.steps_per_period is not None:
-            nm = replace(nm, steps_per_period=2 * nm.steps_per_period)
-        elif method in DEFAULT_STEPS_PER_PERIOD:
-            nm = replace(nm, steps_per_period=2 * DEFAULT_STEPS_PER_PERIOD[method])
-        else:
+        spp = nm.steps_per_period or DEFAULT_STEPS_PER_PERIOD.get(method)
+        if spp is not None:
+            nm = replace(nm, steps_per_period=2 * spp)
+        if spp is None or method == "expo":
+            # RK4's step; for expo too: a point whose expo run meets the Zeno guard is run on
+            # RK4 at step_factor (analysis.pipeline.stages.simulate_runs)
             nm = replace(nm, step_factor=nm.step_factor / 2)
         nm = replace(nm, lyapunov=replace(ly, step_factor=ly.step_factor / 2))
     elif refinement == "windows":

@@ -47,7 +47,8 @@ class Plan:
     table_config : the config stored with every table (contents only, no run-only keys);
     config_hash : 16 hex digits of ``table_config`` and ``grids``.
     points : grid name -> its points in axis order; chunks : grid name -> its chunks.
-    simulation_methods : integrators of the reference runs.
+    simulation_methods : integrators of the reference runs (with ``expo``, RK4 too: the
+    fallback of a run that meets ``expo``'s Zeno guard).
     lyapunov_methods : integrators of the Lyapunov stage's free copies.
     rigid_stick : whether a grid or a line has rigid-stick points (whose kernels are their own,
     so compile_kernels builds them too).
@@ -106,7 +107,10 @@ def build_plan(config: dict, schemas: Path) -> Plan:
     validate_grid_points(points, grids["grids"], grid_file)
     chunks = {name: chunk_points(pts, numerics.chunk_size) for name, pts in points.items()}
     lines = _expand_lines(grids["grids"], config["model"], result_numerics, model_schema, grid_file)
-    methods = sorted({integrator(numerics.method, p.params) for pts in points.values() for p in pts})
+    methods = {integrator(numerics.method, p.params) for pts in points.values() for p in pts}
+    # a point whose expo run meets expo's Zeno guard is run on RK4 (stages.simulate_runs): its
+    # kernel compiled beforehand too, so that no chunk job compiles one (docs/reliability.md)
+    methods = sorted(methods | ({"rk4"} if "expo" in methods else set()))
     every = [p for group in (points, *lines.values()) for pts in group.values() for p in pts]
     free_methods = sorted({free_copy_integrator(numerics.lyapunov.method, p.params) for p in every})
     rigid = any(p.params.get("law") == "rigid-stick" for p in every)

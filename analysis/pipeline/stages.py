@@ -314,9 +314,11 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
         rk4_steps = nm.steps_per_period if nm.method == "rk4" else None
         # one beam_lle call per (free copy's integrator, its expo grid, long record or not)
         runs: dict = {}
+        # a point whose expo reference run met the Zeno guard gets the RK4 pair as well
+        fell_back = {i for i in good if sim.loc[points[i]["point_id"]].get("method") == ZENO_FALLBACK}
         for i in good:
             params = points[i]["params"]
-            free = free_copy_integrator(lopt.method, params)
+            free = "rk4" if i in fell_back else free_copy_integrator(lopt.method, params)
             spp = nm.steps_per_period if free == "expo" and integrator(nm.method, params) == "expo" else None
             runs.setdefault((free, spp or 0, skip[i] is None), []).append(i)
         for (method, spp, long_record), subset in sorted(runs.items()):
@@ -332,6 +334,8 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
                            free_method=method, free_steps=spp or None,
                            free_e0=lopt.expo_e0 if method == "expo" else None)
             for i, est in zip(subset, res):
+                if i in fell_back and free_copy_integrator(lopt.method, points[i]["params"]) == "expo":
+                    est.free_copy = ZENO_FALLBACK
                 recs[i] = _lyapunov_record(sim.loc[points[i]["point_id"]], est, skip[i], lopt,
                                            points[i]["point_id"])
     return recs
@@ -490,6 +494,19 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame,
 
 
 # ----------------------------------------------------------------------------- portraits
+def reference_run(params: dict, nm: Numerics, **kw):
+    """``beamsim.simulate.simulate(**kw, **params)`` on the point's reference integrator
+    (:func:`integrator`) at ``nm.step_factor``; an ``expo`` run that meets the Zeno guard is run
+    again on RK4 (``steps_per_period`` dropped), as :func:`simulate_runs` does, so a figure
+    drawn from it shows the trajectory the table's row was measured on."""
+    from beamsim.simulate import simulate
+
+    r = simulate(method=integrator(nm.method, params), step_factor=nm.step_factor, **kw, **params)
+    if r.n_zeno > 0:
+        r = simulate(method="rk4", step_factor=nm.step_factor, **(kw | {"steps_per_period": None}), **params)
+    return r
+
+
 def portrait_case(row: pd.Series, axes: list[str], numerics: Numerics | dict,
                   samples_per_period: int = 64, n_show: int = 40) -> dict:
     """Dense tip history of one grid point for its phase portrait and Poincare map.
@@ -500,8 +517,6 @@ def portrait_case(row: pd.Series, axes: list[str], numerics: Numerics | dict,
     """
     import json
 
-    from beamsim.simulate import simulate
-
     params = json.loads(row["params_json"])
     nm = as_numerics(numerics)
     spp = nm.steps_per_period
@@ -510,9 +525,8 @@ def portrait_case(row: pd.Series, axes: list[str], numerics: Numerics | dict,
     # the adaptive transient's length (one run instead of the chained ones: the same trajectory
     # up to round-off, which a chaotic record amplifies: the same attractor, not the same samples)
     n_tr = int(row["n_transient_used"]) if pd.notna(row.get("n_transient_used")) else nm.n_transient
-    r = simulate(n_transient=n_tr, n_record=nm.n_record,
-                 method=integrator(nm.method, params), steps_per_period=spp, step_factor=nm.step_factor,
-                 dense_per_period=samples_per_period, **params)
+    r = reference_run(params, nm, n_transient=n_tr, n_record=nm.n_record, steps_per_period=spp,
+                      dense_per_period=samples_per_period)
     t, w = r.dense_t, r.dense[:, 0]
     w_dot = np.gradient(w, t)
     tail = slice(len(t) - n_show * samples_per_period - 1, len(t))

@@ -554,7 +554,7 @@ def new_cache(pt, cache_size):
 @njit(cache=True)
 def new_scratch(pt, n_sub, cnt):
     """The :data:`ExpoWork` scratch of one trajectory with the counters ``cnt`` (``int64``,
-    4; ``cnt[0]`` is the number of filled slots of the cache the scratch is used with, so
+    :data:`N_COUNTERS`; ``cnt[0]`` is the number of filled slots of the cache the scratch is used with, so
     trajectories that share a cache share ``cnt``)."""
     n = pt.Mm.shape[0]
     nq = pt.S.shape[0]

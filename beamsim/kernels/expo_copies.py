@@ -344,6 +344,8 @@ def expo_copies_task(p, c0, c1, pt, sch, x_start, spec, band, opts, log_err, fin
             for m in range(R - 1):
                 for k in range(log_err.shape[2]):
                     log_err[p, c0 + m, k] = np.nan
+            if c0 == 0:
+                zeno[p, 0] = cnts[0][expo._N_ZENO]
             return
         for r in range(1, R):
             if rows.alive[r] and _copy_step(r, t0, t1, rows, work, pt, tally, opts, spec, band):

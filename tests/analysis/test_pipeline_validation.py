@@ -191,8 +191,9 @@ def test_rigid_stick_plans_with_rk4(tmp_path):
     cfg["grid_file"] = str(ROOT / "config" / "grid.yaml")
     plan = build_plan(cfg, SCHEMA.parent)
     assert not plan.rigid_stick
-    # the shipped (stick-slip) config: expo reference runs and expo free copies; rk4: RK4 pairs
-    assert plan.simulation_methods == ["expo"] and plan.lyapunov_methods == ["expo"]
+    # the shipped (stick-slip) config: expo reference runs (RK4 compiled too, for a run that
+    # meets expo's Zeno guard) and expo free copies; rk4: RK4 pairs
+    assert plan.simulation_methods == ["expo", "rk4"] and plan.lyapunov_methods == ["expo"]
     cfg["numerics"]["lyapunov"]["method"] = "rk4"
     assert build_plan(cfg, SCHEMA.parent).lyapunov_methods == ["rk4"]
 
@@ -207,7 +208,7 @@ def test_equal_coefficients_keep_the_rk4_free_copy(tmp_path):
     cfg = _config()
     cfg["grid_file"] = str(_equal_coefficients_grid(tmp_path))
     plan = build_plan(cfg, SCHEMA.parent)
-    assert plan.simulation_methods == ["expo"] and plan.lyapunov_methods == ["rk4"]
+    assert plan.simulation_methods == ["expo", "rk4"] and plan.lyapunov_methods == ["rk4"]
     cfg["numerics"]["lyapunov"]["method"] = "expo"
     with pytest.raises(WorkflowError) as err:
         build_plan(cfg, SCHEMA.parent)

@@ -83,6 +83,23 @@ def test_the_copies_count_the_guard_and_their_reading_is_then_wrong(settled):
                    zeno_out=np.zeros((1, 1), np.int64))
 
 
+def test_the_count_does_not_depend_on_how_the_copies_are_split(settled):
+    """Three copies in one task or in three (each task runs the drive; only the first writes its
+    row): the same counts per row, every copy counted, and the same records."""
+    res, prepared, scales = settled
+    pp, sc = prepared[0], scales[0]
+    off = np.stack([initial_offset(pp, sc, 1e-4, s) for s in range(3)])[None]
+    out = []
+    for split in (1, 3):
+        zeno = np.zeros((1, 4), np.int64)
+        le = run_copies([pp], res[0].final_state[None], off, np.zeros((1, 3)), (1 / sc)[None], n_periods=6,
+                        e0=1e-4, band=(1e-2, 1e2), method="expo", renorm_period=np.ones((1, 3), bool),
+                        zeno_out=zeno, split=split, n_threads=2)
+        out.append((zeno, le))
+    assert np.array_equal(out[0][0], out[1][0]) and (out[0][0][0, 1:] > 0).all(), out[0][0]
+    assert np.array_equal(out[0][1], out[1][1])
+
+
 def test_beam_lle_runs_a_guarded_point_on_rk4(settled):
     """``free_method="expo"``: the point that met the guard gets exactly the RK4 pair's
     estimates (as ``free_method="rk4"``) and says so; the other keeps its ``expo`` pair."""
@@ -101,8 +118,9 @@ def test_beam_lle_runs_a_guarded_point_on_rk4(settled):
 def test_the_stages_record_the_fallback(tmp_path):
     """Through the pipeline's stages (``method: auto``: ``expo`` reference runs): the undamped
     point's simulate record, whose ``expo`` run met the guard, is the RK4 stage's record, marked;
-    the others' are ``expo``'s. With ``lyapunov.method: expo`` the free copy of the point at
-    ``mu_s = mu_k`` falls back to RK4, the one at ``mu_s > mu_k`` stays on ``expo``."""
+    the others' are ``expo``'s. With ``lyapunov.method: expo`` the free copies of both points at
+    ``mu_s = mu_k`` run on RK4 (the undamped one's because its reference run did), the one at
+    ``mu_s > mu_k`` stays on ``expo``."""
     nm = Numerics(n_transient=30, n_record=128, n_transient_max=30, continuation_check=False)
     pts = [{"point_id": k, "params": v} for k, v in (("u", UNDAMPED), ("eq", EQUAL), ("above", ABOVE))]
     sim = simulate_points(pts, nm, str(tmp_path / "a"), threads=2).set_index("point_id")
@@ -114,6 +132,7 @@ def test_the_stages_record_the_fallback(tmp_path):
     assert np.array_equal(np.asarray(a["final_state"]), np.asarray(b["final_state"]))
     assert a["n_transient_used"] == b["n_transient_used"] and a["stick_fraction"] == b["stick_fraction"]
     expo_pair = replace(nm, lyapunov=replace(nm.lyapunov, method="expo"))
-    lya = lyapunov_points(pts[1:], sim.reset_index(), expo_pair, str(tmp_path / "c"), threads=2)
+    lya = lyapunov_points(pts, sim.reset_index(), expo_pair, str(tmp_path / "c"), threads=2)
     lya = lya.set_index("point_id")
-    assert list(lya["lle_free_copy"]) == [ZENO_FALLBACK, "expo"]
+    # "u": its reference run fell back, so its pair is RK4's too; "eq": its expo pair met the guard
+    assert list(lya["lle_free_copy"]) == [ZENO_FALLBACK, ZENO_FALLBACK, "expo"]

@@ -42,6 +42,7 @@ class Case:
     outputs: tuple[str, ...]  # glob patterns under the working directory; each must match
     overrides: dict = field(default_factory=dict)  # deep-merged into config/config.yaml
     ignore_metadata: tuple[bytes, ...] = ()  # Parquet metadata keys allowed to differ
+    jobs: int | None = None  # SLURM submissions expected (None: at least one)
 
     def __str__(self) -> str:
         return "+".join(Path(t).stem for t in self.targets)
@@ -54,6 +55,7 @@ CASES = [
     Case(("modes", "results/regimes/tiny.parquet"),
          ("results/modes/*/modes.parquet", "results/modes/*/characteristic_function.png",
           "results/modes/*/mode_shapes.png", "results/regimes/*.parquet"),
+         jobs=8,  # 2 compute_modes, 2 compile_kernels, 2 chunk groups, plot_modes, regime_table
          overrides={"grid_file": str(ROOT / "tests" / "workflow" / "data" / "grid_tiny.yaml"),
                     "numerics": {"n_transient": 4, "n_record": 128, "n_transient_max": 4, "chunk_size": 1,
                                  "lyapunov": SHORT_LYAPUNOV}}),
@@ -124,7 +126,7 @@ def test_slurm_run_equals_local_run(slurm, case, tmp_path):
 
     # the jobs really went through sbatch and ran as SLURM jobs on the node
     submitted = text.count("has been submitted with SLURM jobid")
-    assert submitted >= 1, text[-4000:]
+    assert submitted >= 1 and case.jobs in (None, submitted), (submitted, text[-4000:])
     job_logs = sorted((slurm_dir / ".snakemake" / "slurm_logs").rglob("*.log"))
     assert len(job_logs) == submitted, job_logs
     for log in job_logs:  # SLURM's --output of each job: the job's own Snakemake ran and finished there
