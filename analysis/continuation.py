@@ -49,7 +49,9 @@ def continuation_sweeps(points: Sequence[dict], numerics: Numerics | dict, *, ax
     order): ``branch``, ``k`` (position on the line), ``axis`` value, ``start`` (``rest`` or
     ``continued``), ``label``, ``period``, ``lle_T``, ``lle_lo_T``, ``lle_hi_T`` (per forcing
     period), ``lle_verdict``, ``reason``, ``n_transient_used``, ``slipped``, ``poincare_w_tip``
-    (the tip's stroboscopic samples), ``poincare_state`` (the full state's) and ``diverged``.
+    (the tip's stroboscopic samples), ``poincare_state`` (the full state's), ``diverged``, and
+    the integrators as in the regime table: ``method`` (of the reference run) and
+    ``lle_free_copy`` (of the Lyapunov stage's free copy; both name a Zeno fallback).
     """
     from analysis.pipeline.stages import classify_points, lyapunov_runs, records_table, simulate_runs
     from beamsim.simulate import prepare_point
@@ -91,6 +93,7 @@ def continuation_sweeps(points: Sequence[dict], numerics: Numerics | dict, *, ax
                      "lle_hi_T": float(ly["lle_hi"]) * period_t, "lle_verdict": ly["lle_verdict"],
                      "reason": c["reason"], "n_transient_used": int(rec["n_transient_used"]),
                      "slipped": bool(rec["slipped"]), "diverged": bool(rec["diverged"]),
+                     "method": rec["method"], "lle_free_copy": ly["lle_free_copy"],
                      "poincare_w_tip": tip[:, 0].tolist() if tip.ndim == 2 and tip.size else [],
                      "poincare_state": np.asarray(rec["poincare_state"], dtype=float).tolist()})
     out = pd.DataFrame(rows)

@@ -80,7 +80,8 @@ def drifting_component(x: np.ndarray, scales: np.ndarray, *, n_blocks: int = 16,
     (two-sided t-test, level ``alpha / d`` per component, ``n_blocks - 2`` degrees of
     freedom): a chaotic record's block means wander, a torus' or periodic orbit's lie still,
     so a trend stands out there and is discounted where the record is noisy."""
-    from scipy import stats
+    from scipy.special import stdtrit  # Student's t quantile (what scipy.stats.t.ppf calls),
+    # without importing scipy.stats: slow to import, in every classify job
 
     x = np.asarray(x, dtype=float)
     n, d = x.shape
@@ -95,7 +96,7 @@ def drifting_component(x: np.ndarray, scales: np.ndarray, *, n_blocks: int = 16,
     drift = slope * n
     resid = means - means.mean(axis=0) - np.outer(tc, slope)
     se = np.sqrt(np.sum(resid ** 2, axis=0) / (nb - 2) / np.sum(tc ** 2))
-    crit = float(stats.t.ppf(1.0 - alpha / (2.0 * d), nb - 2))
+    crit = float(stdtrit(nb - 2, 1.0 - alpha / (2.0 * d)))
     for j in range(d):
         if abs(drift[j]) > min_drift and abs(slope[j]) > crit * se[j]:
             return j, float(drift[j])

@@ -80,7 +80,6 @@ from typing import Literal
 
 import numpy as np
 import scipy.linalg as sla
-from scipy.optimize import brentq
 
 BoundaryCondition = Literal["clamped-free", "clamped-clamped", "pinned-pinned"]
 BOUNDARY_CONDITIONS: tuple[str, ...] = ("clamped-free", "clamped-clamped", "pinned-pinned")
@@ -524,6 +523,9 @@ def arch_modes(alpha: float, beta: float, n_modes: int,
         ritz, n_el = finer, 2 * n_el
         if done:
             break
+    from scipy.optimize import brentq  # here, not at the top: slow to import, and the
+    # pipeline's jobs read their modes from the cache (beamsim.mode_cache) and never solve
+
     # 2. bracket each root between midpoints of consecutive Ritz values
     gaps = np.concatenate([[ritz[0]], np.diff(ritz)])
     lam = np.empty(n_modes)

@@ -176,9 +176,10 @@ def block_statistics(log_err: np.ndarray, period: float, *, block: int = 25, bur
     blocks = np.diff(ends) / (block * period)
     mean = float(blocks.mean())
     se = float(blocks.std(ddof=1) / math.sqrt(n_blocks))
-    from scipy import stats  # not at the top: slow to import, and the Snakefile's plan imports this
+    from scipy.special import stdtrit  # Student's t quantile (what scipy.stats.t.ppf calls); not
+    # scipy.stats, and not at the top: slow to import, and the Snakefile's plan imports this
 
-    half = float(stats.t.ppf(0.5 + confidence / 2.0, n_blocks - 1)) * se
+    half = float(stdtrit(n_blocks - 1, 0.5 + confidence / 2.0)) * se
     lo, hi = mean - half, mean + half
     return LLEStatistics(mean, se, lo, hi, blocks, n_blocks * block, block, burn_in, confidence,
                          decide(lo * period, hi * period, margin), margin, period)

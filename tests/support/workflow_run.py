@@ -46,13 +46,15 @@ def setup_workdir(path: Path, grid: dict = GRID, convergence: dict = SHORT_CONVE
                   multistability: dict = NO_MULTISTABILITY, **numerics) -> Path:
     """``path`` with ``config.yaml`` (the shipped config, short runs -- a fixed transient, a
     long Benettin record no longer than the Stefanski window, ``convergence`` for the
-    convergence step, ``multistability`` for the runs from other starts --, one point per
-    chunk, and ``numerics`` overrides) and ``grid.yaml``."""
+    convergence step, ``multistability`` for the runs from other starts --, chunks of two
+    points -- the tiny grid in one chunk: every chunk is three jobs, each a Python process
+    that imports the package and loads the kernels; the tests of chunking pass
+    ``chunk_size=1`` --, and ``numerics`` overrides) and ``grid.yaml``."""
     cfg = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
     cfg["numerics"]["lyapunov"].update(SHORT_LYAPUNOV)
     cfg["convergence"] = dict(convergence)
     cfg["multistability"] = dict(multistability)
-    cfg["numerics"].update({"n_transient": 4, "n_record": 128, "chunk_size": 1} | numerics)
+    cfg["numerics"].update({"n_transient": 4, "n_record": 128, "chunk_size": 2} | numerics)
     cfg["numerics"].setdefault("n_transient_max", cfg["numerics"]["n_transient"])
     if "n_transient_max" not in numerics:
         cfg["numerics"]["n_transient_max"] = cfg["numerics"]["n_transient"]

@@ -9,6 +9,7 @@ are the same Snakemake jobs and would only add minutes to the suite."""
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 import subprocess
 import time
@@ -55,42 +56,48 @@ def resume(work: Path) -> subprocess.CompletedProcess:
 
 
 @pytest.fixture(scope="module")
-def uninterrupted(tmp_path_factory) -> pd.DataFrame:
+def uninterrupted(tmp_path_factory) -> tuple[Path, pd.DataFrame]:
+    """The uninterrupted run: its working directory and its table."""
     work = setup_workdir(tmp_path_factory.mktemp("uninterrupted"), **NUMERICS)
     res = snakemake(work, TARGET)
     assert res.returncode == 0, res.stderr[-3000:]
-    return pd.read_parquet(work / TABLE)
+    return work, pd.read_parquet(work / TABLE)
 
 
 def _computing(log: Path) -> bool:
-    """The chunk job of ``log`` has started computing and has not finished a point."""
+    """The chunk job of ``log`` has started computing and has not finished its points."""
     try:
         text = log.read_text()
     except OSError:
         return False
-    return "1 to compute" in text and "points done" not in text
+    return " to compute" in text and "points done" not in text
 
 
 def test_killed_in_a_simulate_chunk_resumes_to_the_same_table(tmp_path, uninterrupted):
     work = setup_workdir(tmp_path / "killed", **NUMERICS)
-    logs = [work / "logs/regimes/tiny" / f"simulate_{c:03d}.log" for c in range(2)]
-    assert run_until(work, lambda: any(_computing(log) for log in logs)), "the run ended before the kill"
-    killed = [log for log in logs if _computing(log)]
-    chunk = killed[0].stem.split("_")[1]
-    assert not (work / f"results/regimes/tiny/chunks/{chunk}.simulate.parquet").exists()
+    log = work / "logs/regimes/tiny/simulate_000.log"  # the tiny grid's one chunk
+    assert run_until(work, lambda: _computing(log)), "the run ended before the kill"
+    assert not (work / "results/regimes/tiny/chunks/000.simulate.parquet").exists()
     assert not (work / TABLE).exists()
     resume(work)
-    assert "1 to compute" in killed[0].read_text()  # the killed point was recomputed, not half-loaded
-    pd.testing.assert_frame_equal(pd.read_parquet(work / TABLE), uninterrupted, check_exact=True)
+    assert "2 points, 0 cached, 2 to compute" in log.read_text()  # recomputed, nothing half-loaded
+    pd.testing.assert_frame_equal(pd.read_parquet(work / TABLE), uninterrupted[1], check_exact=True)
 
 
 def test_killed_in_the_table_job_resumes_to_the_same_table(tmp_path, uninterrupted):
-    work = setup_workdir(tmp_path / "killed", **NUMERICS)
+    """Killed while the table job runs: started from a copy of the uninterrupted run without its
+    table (and the table job's log), so the table job is the run's only job -- the chain before
+    it is what the simulate-chunk test covers."""
+    work = tmp_path / "killed"
+    shutil.copytree(uninterrupted[0], work, symlinks=True)  # keeps the times: the chain is up to date
     log = work / "logs/regimes/tiny/regime_table.log"
+    (work / TABLE).unlink()
+    log.unlink()
     assert run_until(work, lambda: log.exists() and not (work / TABLE).exists()), "the run ended first"
     assert not (work / TABLE).exists()
-    resume(work)
-    pd.testing.assert_frame_equal(pd.read_parquet(work / TABLE), uninterrupted, check_exact=True)
+    res = resume(work)
+    assert "regime_table" in res.stdout + res.stderr and "simulate_chunk" not in res.stdout + res.stderr
+    pd.testing.assert_frame_equal(pd.read_parquet(work / TABLE), uninterrupted[1], check_exact=True)
 
 
 def test_a_process_killed_while_writing_a_table_leaves_the_old_one(tmp_path):

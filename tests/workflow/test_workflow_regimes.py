@@ -26,15 +26,17 @@ CONVERGENCE = {"sample": 1, "seed": 0, "refinements": ["step", "windows", "k_t",
 #: perturbation: at the shipped 0.3 the tiny grid's three-mode beam goes onto a large motion that
 #: doubles the step's time; what these tests check is the bookkeeping, not the attractors)
 MULTISTABILITY = {"sample": "all", "perturbations": 1, "amplitude": 0.05}
-#: the tiny grid with a two-point continuation line
+#: the tiny grid with a two-point continuation line (one mode: with the grid's three, the
+#: Stefanski ladder at the line's unsettled points took 25 s of the module's two minutes)
 GRID_L = yaml.safe_load(yaml.safe_dump(GRID))
-GRID_L["grids"]["tiny"]["lines"] = {"sweep": {"axes": {"f0_rel": [2.0, 3.0]}, "fixed": {"mu_s": 0.5}}}
+GRID_L["grids"]["tiny"]["lines"] = {"sweep": {"axes": {"f0_rel": [2.0, 3.0]},
+                                              "fixed": {"mu_s": 0.5, "n_modes": 1}}}
 
 
 @pytest.fixture(scope="module")
 def first_run(tmp_path_factory):
     work = setup_workdir(tmp_path_factory.mktemp("regimes"), grid=GRID_L, convergence=CONVERGENCE,
-                         multistability=MULTISTABILITY)
+                         multistability=MULTISTABILITY, chunk_size=1)  # a chunk per point
     res = snakemake(work, "regimes")
     assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
     return work
@@ -130,15 +132,27 @@ def test_continuation_line_ships_with_the_map(first_run):
     assert list(t["branch"]) == ["up", "up", "down", "down"] and list(t["f0_rel"]) == [2.0, 3.0] * 2
     assert list(t["start"]) == ["rest", "continued", "continued", "rest"]
     assert t["label"].notna().all() and t["lle_verdict"].notna().all()
+    assert list(t["method"]) == ["expo"] * 4 and list(t["lle_free_copy"]) == ["expo"] * 4
     meta = read_regime_metadata(out / "sweep.parquet")
-    assert meta["grid"]["fixed"] == {"mu_s": 0.5} and len(meta["config_hash"]) == 16
+    assert meta["grid"]["fixed"] == {"mu_s": 0.5, "n_modes": 1} and len(meta["config_hash"]) == 16
     # the line's own inputs: the grid's fixed values under the line's, the map's numerics
     assert [pt["mu_s"] for pt in meta["config"]["points"]] == [0.5, 0.5]
+    assert [pt["n_modes"] for pt in meta["config"]["points"]] == [1, 1]
     assert [pt["Omega"] for pt in meta["config"]["points"]] == [2.5, 2.5]
     map_meta = read_regime_metadata(first_run / "results/regimes/tiny.parquet")
     assert meta["config"]["version"] == RESULTS_VERSION
     for key in ("n_transient", "n_record", "n_transient_max"):
         assert meta["config"]["numerics"][key] == map_meta["config"]["numerics"][key], key
+
+
+def test_report_holds_the_maps_with_captions(first_run):
+    """The HTML report of `regimes` (before the tests below edit the grid) holds the maps with
+    their captions (the paper's items: tests/workflow/test_workflow_paper.py)."""
+    res = snakemake(first_run, "regimes", "--report", str(first_run / "report.html"))
+    assert res.returncode == 0, res.stderr[-3000:]
+    html = (first_run / "report.html").read_text(errors="replace")
+    for caption in ("Regime map of grid", "Largest Lyapunov exponent per forcing period"):
+        assert caption in html, caption
 
 
 def test_adding_a_point_computes_only_the_new_one(first_run, tmp_path):
@@ -167,10 +181,12 @@ def test_adding_a_point_computes_only_the_new_one(first_run, tmp_path):
 
 
 def test_same_config_same_table_whatever_the_core_count(first_run, tmp_path):
+    """The map and its runs from other starts at -c1 equal those at -c2 bit for bit (the
+    convergence runs are left out: each is a point run through the same stages as the map's,
+    which the map's table covers, and they would add a minute to the suite)."""
     other = setup_workdir(tmp_path / "again", grid=GRID_L, convergence=CONVERGENCE,
-                          multistability=MULTISTABILITY)
-    targets = ("results/regimes/tiny.parquet", "results/regimes/tiny/convergence.parquet",
-               "results/regimes/tiny/attractors.parquet")
+                          multistability=MULTISTABILITY, chunk_size=1)
+    targets = ("results/regimes/tiny.parquet", "results/regimes/tiny/attractors.parquet")
     res = snakemake(other, *targets, cores=1)
     assert res.returncode == 0, res.stderr[-3000:]
     res = snakemake(first_run, *targets)  # first_run's grid restored above
