@@ -17,6 +17,14 @@ from analysis.regimes import CLASSIFIER_VERSION
 from beamsim.mode_cache import model_cache_key
 
 
+def estimate_cores() -> int:
+    """The cores the run's time estimate assumes (the dry run's log line and the length gate):
+    ``-c`` locally; on a cluster ``--jobs`` jobs at a time, each with the chunk rules' 2 threads."""
+    if workflow.local_exec:
+        return workflow.global_resources.get("_cores") or 1
+    return 2 * (workflow.global_resources.get("_nodes") or 1)
+
+
 #: every check that can refuse an input runs here, while the workflow is parsed (before any job)
 PLAN = build_plan(config, Path(workflow.basedir) / "workflow" / "schemas")
 GRIDS = PLAN.grids
@@ -65,7 +73,7 @@ if workflow.is_main_process:  # not in the per-job processes of a cluster execut
     ESTIMATE = estimate_run([p for pts in POINTS.values() for p in pts], PLAN.numerics, STORE_ROOT,
                             convergence=PENDING_CONVERGENCE, lines=PENDING_LINES,
                             multistability=PENDING_MULTISTABILITY)
-    logger.info(f"regimes: {ESTIMATE.summary(workflow.global_resources.get('_cores') or 1)}")
+    logger.info(f"regimes: {ESTIMATE.summary(estimate_cores())}")
 
 
 onstart:
@@ -73,10 +81,7 @@ onstart:
     # without the opt-in, or if results/ cannot take the new files
     jobs = {job.rule.name for job in workflow.dag.needrun_jobs()}
     if jobs & {"simulate_chunk", "lyapunov_chunk"}:
-        # on a cluster: --jobs jobs at a time, each with the chunk rules' 2 threads
-        cores = (workflow.global_resources.get("_cores") or 1 if workflow.local_exec
-                 else 2 * (workflow.global_resources.get("_nodes") or 1))
-        check_run_length(ESTIMATE, cores, config.get("allow_long", False))
+        check_run_length(ESTIMATE, estimate_cores(), config.get("allow_long", False))
     if jobs:
         check_results_dir("results", ESTIMATE.disk_bytes)
 
