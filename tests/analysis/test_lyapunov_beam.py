@@ -163,7 +163,8 @@ def test_chaotic_point_is_chaotic_for_both_estimators():
     exponent is far above the resolution and stays so when the measuring time doubles, and
     Stefanski's verdict is chaotic with its threshold d_s at or above Benettin's value: for a
     non-smooth flow d_s is an upper bound of lambda_1 (Baumann & Leine 2016); here it is
-    1.1-4 times larger on most stretches of the attractor and about 200 times on some
+    1.1-4 times larger on most stretches of the attractor and about 200 times on one of the
+    three measured on one machine
     (grazing breakaways, mu_s > mu_k; docs/lyapunov.md s.7), so the two are *not* required to
     agree."""
     pp = prepare_point(**CHAOTIC)

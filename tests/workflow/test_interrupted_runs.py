@@ -17,6 +17,7 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
+import yaml
 from workflow_run import setup_workdir, snakemake, snakemake_command, snakemake_env
 
 #: long enough (three modes, 30 + 128 periods) that a chunk job computes for a second or two
@@ -90,13 +91,20 @@ def test_killed_in_the_table_job_resumes_to_the_same_table(tmp_path, uninterrupt
     it is what the simulate-chunk test covers."""
     work = tmp_path / "killed"
     shutil.copytree(uninterrupted[0], work, symlinks=True)  # keeps the times: the chain is up to date
+    config = yaml.safe_load((work / "config.yaml").read_text())
+    config["grid_file"] = str(work / "grid.yaml")  # the copy's own grid file, same text
+    (work / "config.yaml").write_text(yaml.safe_dump(config))
     log = work / "logs/regimes/tiny/regime_table.log"
+    chain = work / "logs/regimes/tiny/simulate_000.log"
+    chain_time = chain.stat().st_mtime_ns
     (work / TABLE).unlink()
     log.unlink()
     assert run_until(work, lambda: log.exists() and not (work / TABLE).exists()), "the run ended first"
     assert not (work / TABLE).exists()
+    assert chain.stat().st_mtime_ns == chain_time  # the killed run ran the table job only
     res = resume(work)
     assert "regime_table" in res.stdout + res.stderr and "simulate_chunk" not in res.stdout + res.stderr
+    assert chain.stat().st_mtime_ns == chain_time
     pd.testing.assert_frame_equal(pd.read_parquet(work / TABLE), uninterrupted[1], check_exact=True)
 
 

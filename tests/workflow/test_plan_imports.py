@@ -1,7 +1,9 @@
-"""Every Snakemake job of a local run is a Snakemake process that parses the Snakefile before
-its script starts, so what the Snakefile imports is paid once per job (docs/architecture.md,
-"What the suite's time is made of"): the modules it imports must not pull in the slow
-libraries that only the jobs' scripts need."""
+"""What the Snakefile imports is paid by every `snakemake` call and, on a cluster, by every job
+(each runs as `snakemake --target-jobs`; docs/architecture.md, "What the suite's time is made
+of"): the modules it imports must not pull in the slow libraries that only the jobs' scripts
+need.  A local job is a Python process running its script: the modules the compute scripts
+import must not pull in the libraries only some of them use (scipy.stats, scipy.optimize:
+"What a local job costs")."""
 
 from __future__ import annotations
 
@@ -35,3 +37,27 @@ def test_the_snakefile_imports_no_slow_library():
                          env=snakemake_env(), cwd=ROOT)
     assert res.returncode == 0, res.stderr[-2000:]
     assert res.stdout.strip() == "", f"imported while the Snakefile is parsed: {res.stdout.strip()}"
+
+
+
+#: imported where they are used (fitting the arch modes, the figures), not by a compute job
+NOT_IN_JOBS = ("matplotlib", "scipy.stats", "scipy.optimize")
+
+
+def test_a_compute_job_imports_no_library_it_does_not_use():
+    """The modules of the simulate, Lyapunov and classify scripts and of the modes' cache, and
+    the two Student-t quantiles of the stages (the block statistics' interval, the drift
+    test), import none of ``NOT_IN_JOBS``."""
+    code = ("import sys\nimport numpy as np\n"
+            "import analysis.pipeline.stages, analysis.pipeline.atomic, beamsim.mode_cache\n"
+            "from analysis.lyapunov.block_statistics import block_statistics\n"
+            "from analysis.transients import drifting_component\n"
+            "s = block_statistics(np.cumsum(np.full(61, 0.01)), 1.0, block=5, burn_in=5)\n"
+            "assert np.isfinite(s.hi), s\n"
+            "x = np.random.default_rng(0).random((64, 3))\n"
+            "drifting_component(x + np.linspace(0.0, 5.0, 64)[:, None], np.ones(3))\n"
+            f"print(','.join(s for s in {NOT_IN_JOBS!r} if s in sys.modules))")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                         env=snakemake_env(), cwd=ROOT)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert res.stdout.strip() == "", f"imported by a compute job's modules: {res.stdout.strip()}"
