@@ -11,6 +11,7 @@ from analysis.paper.runs import stribeck_constants
 from analysis.paper.tables import paper_config_hash
 from analysis.pipeline.cost import estimate_run
 from analysis.pipeline.grid import RESULTS_VERSION
+from analysis.pipeline.outcome import check_targets_made
 from analysis.pipeline.plan import build_plan
 from analysis.pipeline.preflight import check_results_dir, check_run_length
 from analysis.regimes import CLASSIFIER_VERSION
@@ -86,6 +87,11 @@ onstart:
         check_run_length(ESTIMATE, estimate_cores(), config.get("allow_long", False))
     if jobs:
         check_results_dir("results", ESTIMATE.disk_bytes)
+
+
+onsuccess:
+    # every file asked for exists (Snakemake can drop a chain after a killed run: analysis.pipeline.outcome)
+    check_targets_made(f for job in workflow.dag.targetjobs for f in [*job.output, *job.input])
 
 
 def chunk_ids(grid: str) -> list[str]:

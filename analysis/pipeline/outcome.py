@@ -1,0 +1,30 @@
+"""The check after a run that Snakemake calls successful: every file the command asked for exists.
+
+Snakemake 9.15 can end a run with exit code 0 without the requested files: with
+``--rerun-incomplete`` (``profiles/default/``), an existing output that a killed run left
+marked incomplete, and that later jobs read through ``ancient()`` -- the kernels' stamps
+``results/kernels/<stage>.done`` --, is rerun alone and the jobs downstream of it are dropped
+from the DAG (a minimal Snakefile shows it: ``tests/workflow/test_interrupted_runs.py``). The
+workflow's ``onsuccess`` calls :func:`check_targets_made`, so such a run fails in one line that
+says what to do (run the same command again: the stamp is complete then) instead of looking
+finished (docs/reliability.md, "Interrupted runs resume to the same table").
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from pathlib import Path
+
+from snakemake.exceptions import WorkflowError
+
+
+def check_targets_made(targets: Iterable[str]) -> None:
+    """Raise a one-line :class:`WorkflowError` naming the files of ``targets`` that do not exist
+    (the workflow passes the target jobs' outputs and inputs: an aggregate target such as
+    ``regimes`` has only inputs)."""
+    missing = sorted({str(f) for f in targets if not Path(f).exists()})
+    if missing:
+        raise WorkflowError(
+            f"the run ended without {', '.join(missing[:3])}{' ...' if len(missing) > 3 else ''}: "
+            f"Snakemake dropped the jobs that make it (after a killed run: a kernel stamp it left "
+            f"incomplete was rebuilt alone, docs/reliability.md); run the same command again")
