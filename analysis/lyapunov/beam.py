@@ -70,7 +70,6 @@ class BeamLLE:
     free_copy: str = "rk4"
 
 
-
 def attractor_scale(poincare_state: np.ndarray, q_ref: np.ndarray, omega: float) -> np.ndarray:
     """Per-component size of the attractor, ``(2 n,)`` for ``(q, v)``: the larger of the
     spread (standard deviation) of the Poincare samples (rows = periods) and the forced

@@ -202,6 +202,7 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int) -> list[dict]:
                 results[i] = r
                 zeno[i] += r.n_zeno
     redo = [i for i, z in enumerate(zeno) if z > 0]
+    fallback: dict[int, dict] = {}
     if redo:
         log.info("expo met its Zeno guard at %d point(s) (%s steps): run on RK4",
                  len(redo), [zeno[i] for i in redo])
@@ -210,7 +211,7 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int) -> list[dict]:
     out = []
     for i, (r, n_tr, t_run, (slipped, t_slip), why) in enumerate(
             zip(results, used, t_start, first_slip, why_continued)):
-        if i in redo:
+        if i in fallback:
             out.append(fallback[i] | {"method": ZENO_FALLBACK})
             continue
         energy = r.energy
@@ -316,10 +317,11 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
         runs: dict = {}
         # a point whose expo reference run met the Zeno guard gets the RK4 pair as well
         fell_back = {i for i in good if sim.loc[points[i]["point_id"]].get("method") == ZENO_FALLBACK}
+        asked = {i: free_copy_integrator(lopt.method, points[i]["params"]) for i in good}
         for i in good:
-            params = points[i]["params"]
-            free = "rk4" if i in fell_back else free_copy_integrator(lopt.method, params)
-            spp = nm.steps_per_period if free == "expo" and integrator(nm.method, params) == "expo" else None
+            free = "rk4" if i in fell_back else asked[i]
+            ref = integrator(nm.method, points[i]["params"])
+            spp = nm.steps_per_period if free == "expo" and ref == "expo" else None
             runs.setdefault((free, spp or 0, skip[i] is None), []).append(i)
         for (method, spp, long_record), subset in sorted(runs.items()):
             plan = lopt.block_plan() if long_record else None
@@ -334,7 +336,7 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
                            free_method=method, free_steps=spp or None,
                            free_e0=lopt.expo_e0 if method == "expo" else None)
             for i, est in zip(subset, res):
-                if i in fell_back and free_copy_integrator(lopt.method, points[i]["params"]) == "expo":
+                if i in fell_back and asked[i] == "expo":
                     est.free_copy = ZENO_FALLBACK
                 recs[i] = _lyapunov_record(sim.loc[points[i]["point_id"]], est, skip[i], lopt,
                                            points[i]["point_id"])

@@ -94,8 +94,7 @@ def test_killed_in_a_simulate_chunk_resumes_to_the_same_table(tmp_path, uninterr
         "the run ended before the kill"
     assert not (work / "results/regimes/tiny/chunks/000.simulate.parquet").exists()
     assert not (work / TABLE).exists()
-    res = resume(work)
-    assert (work / TABLE).exists(), res.stdout[-3000:] + res.stderr[-3000:]
+    resume(work)
     assert "2 points, 0 cached, 2 to compute" in log.read_text()  # recomputed, nothing half-loaded
     pd.testing.assert_frame_equal(pd.read_parquet(work / TABLE), uninterrupted[1], check_exact=True)
 
