@@ -15,6 +15,7 @@ import shutil
 import subprocess
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -27,7 +28,9 @@ from workflow_run import SHORT_LYAPUNOV
 
 ROOT = Path(__file__).resolve().parents[2]
 VENV_BIN = str(Path(sys.executable).parent)
-RUN_TIMEOUT = 300  # seconds for one snakemake run (the SLURM one takes ~30 s here)
+#: the kernel jobs' outputs (rule compile_kernels)
+KERNEL_STAMPS = ("results/kernels/simulate.done", "results/kernels/lyapunov.done")
+RUN_TIMEOUT = 300  # seconds for one snakemake run (the SLURM one takes 75-100 s here)
 
 # slow, and mostly waiting on status polls (run first: tests/conftest.py); one local cluster for
 # the module (make test hands whole files to a worker: --dist loadfile)
@@ -105,21 +108,31 @@ def test_slurm_run_equals_local_run(slurm, case, tmp_path):
         (d / "config" / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
 
     env = slurm.env(extra_path=[VENV_BIN]) | {"PYTHONPATH": str(ROOT)}
-    local, t_local = _snakemake(local_dir, local_dir / "config" / "config.yaml", case.targets, "-c1", env=env)
+    # The local reference run computes while the SLURM run mostly waits on its status polls, so
+    # the two run side by side (separate working directories), after the local run's kernel
+    # jobs: they fill numba's cache, which both runs read (on a fresh clone the two would
+    # otherwise compile the same kernels at once, minutes of CPU each).
+    kernels, _ = _snakemake(local_dir, local_dir / "config" / "config.yaml", KERNEL_STAMPS, "-c1", env=env)
+    assert kernels.returncode == 0, kernels.stdout[-3000:] + kernels.stderr[-5000:]
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        local_run = pool.submit(_snakemake, local_dir, local_dir / "config" / "config.yaml", case.targets,
+                                "-c1", env=env)
+        slurm_run = pool.submit(
+            _snakemake, slurm_dir, slurm_dir / "config" / "config.yaml", case.targets,
+            "--profile", str(ROOT / "profiles" / "slurm"),
+            # the local cluster: no accounting (squeue, not sacct), partition `debug`, small
+            # jobs, a short first status check; everything else comes from the profile. (A
+            # command-line --default-resources replaces the profile's whole list, so all four
+            # are given.)
+            "--slurm-status-command", "squeue",
+            "--slurm-init-seconds-before-status-checks", "2",
+            "--default-resources", "slurm_partition=debug", "runtime=10", "mem_mb=1000",
+            "cpus_per_task=threads",
+            "--latency-wait", "10", "--retries", "0", "--slurm-keep-successful-logs",
+            env=env,
+        )
+        (local, t_local), (remote, t_slurm) = local_run.result(), slurm_run.result()
     assert local.returncode == 0, local.stdout[-3000:] + local.stderr[-5000:]
-
-    remote, t_slurm = _snakemake(
-        slurm_dir, slurm_dir / "config" / "config.yaml", case.targets,
-        "--profile", str(ROOT / "profiles" / "slurm"),
-        # the local cluster: no accounting (squeue, not sacct), partition `debug`, small jobs,
-        # a short first status check; everything else comes from the profile. (A command-line
-        # --default-resources replaces the profile's whole list, so all four are given.)
-        "--slurm-status-command", "squeue",
-        "--slurm-init-seconds-before-status-checks", "2",
-        "--default-resources", "slurm_partition=debug", "runtime=10", "mem_mb=1000", "cpus_per_task=threads",
-        "--latency-wait", "10", "--retries", "0", "--slurm-keep-successful-logs",
-        env=env,
-    )
     text = remote.stdout + remote.stderr
     assert remote.returncode == 0, text[-6000:] + "\n" + slurm.logs()
     print(f"\n{case}: local -c1 run {t_local:.1f} s, SLURM run {t_slurm:.1f} s")
