@@ -28,8 +28,6 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.cluster.hierarchy import fcluster, linkage
-from scipy.spatial.distance import pdist
 
 __all__ = [
     "MIN_SAMPLES",
@@ -359,6 +357,11 @@ def cluster_points(
 
     Only the last ``max_points`` samples are used (memory ``O(n^2)``).
     """
+    # imported here, not at the top: scipy.cluster and scipy.spatial are slow to import, and
+    # every `snakemake` call imports this module (the Snakefile's plan uses the label names)
+    from scipy.cluster.hierarchy import fcluster, linkage
+    from scipy.spatial.distance import pdist
+
     x = np.asarray(samples, dtype=np.float64)
     s = component_scales(x) if scales is None else np.asarray(scales, dtype=np.float64)
     y = (x / s)[-max_points:]

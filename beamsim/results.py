@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["SimResult", "BatchResult", "TIP_COLUMNS", "ENERGY_COLUMNS", "N_FLAGS", "N_STATS",
-           "ZENO_FALLBACK"]
+__all__ = ["SimResult", "BatchResult", "TIP_COLUMNS", "ENERGY_COLUMNS", "INTEGRATORS", "N_FLAGS",
+           "N_STATS", "ZENO_FALLBACK"]
 
 #: columns of ``SimResult.poincare_tip`` / the dense history
 TIP_COLUMNS = ("w_tip", "u1_tip", "u2_tip", "load_point")
@@ -33,6 +33,11 @@ FLAG_N_EVENTS = 8          #: located stick/slip switches (RK4, expo)
 FLAG_N_CHECKS = 9          #: expo: event-function checks
 FLAG_N_ZENO = 10           #: expo: steps ended by the Zeno guard (the state taken to the step end)
 N_FLAGS = 11
+
+#: the simulator's integrators, the keys of :data:`beamsim.simulate.METHODS` in its order (here,
+#: without the kernels, for modules that only check a name: the pipeline's config, which every
+#: ``snakemake`` call parses)
+INTEGRATORS = ("rk4", "expo", "newmark")
 
 #: the integrator recorded for a run that asked for ``expo`` and was run on RK4 because an
 #: ``expo`` trajectory met the Zeno guard (``n_zeno > 0``; the pipeline's stages do this)

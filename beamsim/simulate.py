@@ -46,7 +46,15 @@ from beamsim.point import (
     prepare_point,
     stack_points,
 )
-from beamsim.results import ENERGY_COLUMNS, N_FLAGS, TIP_COLUMNS, BatchResult, SimResult, flag_fields
+from beamsim.results import (
+    ENERGY_COLUMNS,
+    INTEGRATORS,
+    N_FLAGS,
+    TIP_COLUMNS,
+    BatchResult,
+    SimResult,
+    flag_fields,
+)
 from beamsim.two_layer import check_int, check_positive
 
 __all__ = ["simulate", "simulate_batch", "SimResult", "BatchResult", "prepare_point",
@@ -84,6 +92,8 @@ METHODS = {
     "expo": Method(_run_expo, laws=METHOD_LAWS["expo"]),
     "newmark": Method(_run_newmark, laws=METHOD_LAWS["newmark"]),
 }
+if tuple(METHODS) != INTEGRATORS:
+    raise ImportError(f"beamsim.results.INTEGRATORS {INTEGRATORS} must name METHODS {tuple(METHODS)}")
 
 #: the bit keys of stick patterns (expo's decompositions, the rigid stick's constraint
 #: matrices) hold at most this many interface points

@@ -14,13 +14,13 @@ from dataclasses import asdict, dataclass, field, fields
 from typing import Any, Mapping
 
 from analysis.lyapunov.block_statistics import BlockPlan
-from beamsim.simulate import METHODS as SIMULATOR_METHODS
+from beamsim.results import INTEGRATORS
 
 __all__ = ["LYAPUNOV_METHODS", "LyapunovNumerics", "Numerics", "as_numerics"]
 
 #: reference-run integrators the pipeline accepts: the simulator's, and ``auto``
 #: (:func:`analysis.pipeline.stages.integrator`)
-METHODS = ("auto", *SIMULATOR_METHODS)
+METHODS = ("auto", *INTEGRATORS)
 
 #: integrators of the Lyapunov stage's free copy (:func:`analysis.pipeline.stages.free_copy_integrator`)
 LYAPUNOV_METHODS = ("auto", "rk4", "expo")

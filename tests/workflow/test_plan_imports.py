@@ -3,7 +3,7 @@
 of"): the modules it imports must not pull in the slow libraries that only the jobs' scripts
 need.  A local job is a Python process running its script: the modules the compute scripts
 import must not pull in the libraries only some of them use (scipy.stats, scipy.optimize:
-"What a local job costs")."""
+"What a local job costs"), and a job that only reads tables must not load the kernels."""
 
 from __future__ import annotations
 
@@ -61,3 +61,29 @@ def test_a_compute_job_imports_no_library_it_does_not_use():
                          env=snakemake_env(), cwd=ROOT)
     assert res.returncode == 0, res.stderr[-2000:]
     assert res.stdout.strip() == "", f"imported by a compute job's modules: {res.stdout.strip()}"
+
+
+#: the kernels' libraries: a job that only reads tables (classify, the map's table) needs none
+KERNEL_LIBRARIES = ("numba", "beamsim.simulate", "beamsim.kernels", "nolds", "scipy.cluster",
+                    "scipy.spatial")
+
+
+def test_a_table_job_imports_no_kernel_library():
+    """The classify and table jobs' modules (the stages, the plan, the classifier) load neither
+    numba and the kernels nor the libraries only the classifier's clustering uses (about 0.55 s
+    of every such job, docs/architecture.md); the clustering still works once called."""
+    code = ("import sys\nimport numpy as np\n"
+            "import analysis.pipeline.stages, analysis.pipeline.atomic, analysis.pipeline.plan\n"
+            "from analysis.pipeline.stages import classify_points, lle_resolution\n"
+            "from analysis.lyapunov.block_statistics import block_statistics\n"
+            f"print(','.join(s for s in {KERNEL_LIBRARIES!r} if s in sys.modules))\n"
+            "from analysis.poincare import cluster_points\n"
+            "x = np.r_[np.zeros((8, 2)), np.ones((8, 2))]\n"
+            "assert cluster_points(x, tol=0.1).n_clusters == 2\n"
+            "from analysis.lyapunov import LLEResult, stefanski_lle\n"
+            "import analysis.lyapunov as L\n"
+            "assert 'stefanski_lle' in dir(L) and callable(L.sync_search) and callable(L.stefanski_lle)\n")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                         env=snakemake_env(), cwd=ROOT)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert res.stdout.strip() == "", f"imported by a table job's modules: {res.stdout.strip()}"
