@@ -70,8 +70,8 @@ KERNEL_LIBRARIES = ("numba", "beamsim.simulate", "beamsim.kernels", "nolds", "sc
 
 def test_a_table_job_imports_no_kernel_library():
     """The classify and table jobs' modules (the stages, the plan, the classifier) load neither
-    numba and the kernels nor the libraries only the classifier's clustering uses (about 0.55 s
-    of every such job, docs/architecture.md); the clustering still works once called."""
+    numba and the kernels nor the libraries only the classifier's clustering uses (their import
+    time: docs/architecture.md); the clustering and the lazily loaded estimators still work."""
     code = ("import sys\nimport numpy as np\n"
             "import analysis.pipeline.stages, analysis.pipeline.atomic, analysis.pipeline.plan\n"
             "from analysis.pipeline.stages import classify_points, lle_resolution\n"
