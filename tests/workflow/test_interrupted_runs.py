@@ -99,19 +99,26 @@ def test_killed_in_a_simulate_chunk_resumes_to_the_same_table(tmp_path, uninterr
     pd.testing.assert_frame_equal(pd.read_parquet(work / TABLE), uninterrupted[1], check_exact=True)
 
 
+def _copy_without_table(finished: Path, work: Path) -> Path:
+    """A copy of the finished working directory ``finished`` at ``work`` with its own grid file
+    (same text) and without the table; the copy keeps the files' times, so the chain before the
+    table is up to date."""
+    shutil.copytree(finished, work, symlinks=True)
+    config = yaml.safe_load((work / "config.yaml").read_text())
+    config["grid_file"] = str(work / "grid.yaml")
+    (work / "config.yaml").write_text(yaml.safe_dump(config))
+    (work / TABLE).unlink()
+    return work
+
+
 def test_killed_in_the_table_job_resumes_to_the_same_table(tmp_path, uninterrupted):
     """Killed while the table job runs: started from a copy of the uninterrupted run without its
     table (and the table job's log), so the table job is the run's only job -- the chain before
     it is what the simulate-chunk test covers."""
-    work = tmp_path / "killed"
-    shutil.copytree(uninterrupted[0], work, symlinks=True)  # keeps the times: the chain is up to date
-    config = yaml.safe_load((work / "config.yaml").read_text())
-    config["grid_file"] = str(work / "grid.yaml")  # the copy's own grid file, same text
-    (work / "config.yaml").write_text(yaml.safe_dump(config))
+    work = _copy_without_table(uninterrupted[0], tmp_path / "killed")
     log = work / "logs/regimes/tiny/regime_table.log"
     chain = work / "logs/regimes/tiny/simulate_000.log"
     chain_time = chain.stat().st_mtime_ns
-    (work / TABLE).unlink()
     log.unlink()
     assert run_until(work, lambda: log.exists() and not (work / TABLE).exists()), "the run ended first"
     assert not (work / TABLE).exists()
@@ -154,12 +161,7 @@ def test_a_dropped_chain_fails_in_one_line_and_the_rerun_makes_the_table(tmp_pat
     as finished) and the table missing: Snakemake rebuilds the stamp alone and stops; the
     workflow says so in one line instead of exiting 0, and the same command again makes the
     table, equal to the uninterrupted one."""
-    work = tmp_path / "dropped"
-    shutil.copytree(uninterrupted[0], work, symlinks=True)
-    config = yaml.safe_load((work / "config.yaml").read_text())
-    config["grid_file"] = str(work / "grid.yaml")
-    (work / "config.yaml").write_text(yaml.safe_dump(config))
-    (work / TABLE).unlink()
+    work = _copy_without_table(uninterrupted[0], tmp_path / "dropped")
     _incomplete_marker(work, "results/kernels/lyapunov.done").touch()
     res = snakemake(work, TARGET)
     lines = [ln for ln in (res.stdout + res.stderr).splitlines() if AGAIN in ln]

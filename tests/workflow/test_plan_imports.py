@@ -39,7 +39,6 @@ def test_the_snakefile_imports_no_slow_library():
     assert res.stdout.strip() == "", f"imported while the Snakefile is parsed: {res.stdout.strip()}"
 
 
-
 #: imported where they are used (fitting the arch modes, the figures), not by a compute job
 NOT_IN_JOBS = ("matplotlib", "scipy.stats", "scipy.optimize")
 
