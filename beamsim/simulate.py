@@ -38,6 +38,7 @@ from beamsim.friction import RIGID_STICK
 from beamsim.kernels import expo, newmark, rk4
 from beamsim.kernels.bundles import Outputs, Schedule
 from beamsim.kernels.thread_pool import run_items
+from beamsim.pattern_store import PatternStore, model_keys
 from beamsim.point import (
     METHOD_LAWS,
     PreparedPoint,
@@ -78,8 +79,14 @@ def _run_rk4(stk, sched, opts, out, threads):
 
 
 def _run_expo(stk, sched, opts, out, threads):
-    run_items(expo.run_point, (stk, sched, opts["event_checks"], opts["pattern_cache"], out),
-              range(stk.f0.shape[0]), threads)
+    keys = model_keys(stk)
+    # the points of one model one after another, so that a thread's cache keeps its model
+    items = np.argsort(keys, kind="stable")
+    workers = max(1, min(threads, items.size))
+    store = opts["pattern_store"] or PatternStore()
+    with store.caches(stk.Mm.shape[1], stk.S.shape[1], opts["pattern_cache"], workers) as caches:
+        run_items(expo.run_point, (stk, sched, opts["event_checks"], keys, out), items, threads,
+                  per_thread=caches)
 
 
 def _run_newmark(stk, sched, opts, out, threads):
@@ -165,7 +172,7 @@ def simulate_batch(points, *, n_transient: int = 50, n_record: int = 50,
                    method: str = "rk4", dense_per_period: int = 0, dense_full: bool = False,
                    div_limit: float = 1e6, n_threads: int | None = None,
                    event_checks: int = 4, pattern_cache: int = 2048,
-                   **common) -> BatchResult:
+                   pattern_store: PatternStore | None = None, **common) -> BatchResult:
     """Simulate many parameter points in one compiled, thread-parallel call.
 
     points : sequence of dicts (or a pandas DataFrame, one row per point) of point parameters
@@ -181,9 +188,13 @@ def simulate_batch(points, *, n_transient: int = 50, n_record: int = 50,
     event_checks : expo: checks per step at least before a crossing is located (Illinois with
         a bisection safeguard).
     pattern_cache : expo: number of stick patterns whose eigen-decomposition is cached (capped
-        at about 100 MB per point in flight; the slots are allocated but touched only when used;
+        at about 100 MB per thread; the slots are allocated but touched only when used;
         a smaller cache changes the cost, not the result: a decomposition evicted and recomputed
         is the same to the bit).
+    pattern_store : expo: a :class:`beamsim.pattern_store.PatternStore` whose per-thread caches
+        this call uses and leaves filled for the next call that is handed it (default: caches
+        of this call only, shared by its points).  It changes the cost and the counter
+        ``n_patterns`` (decompositions computed), not the result.
     dense_per_period : if > 0, also store a dense history with this many samples per period.
     div_limit : a point whose max |q| exceeds ``div_limit * q_ref`` (or whose state becomes
         non-finite) is flagged as diverged and stopped; the others are unaffected.  ``q_ref`` is
@@ -210,10 +221,11 @@ def simulate_batch(points, *, n_transient: int = 50, n_record: int = 50,
         steps_per_period = check_int("steps_per_period", steps_per_period, 1)
     prepared = [prepare_point(**pt) for pt in points]
     opts = dict(event_checks=check_int("event_checks", event_checks, 1),
-                pattern_cache=check_int("pattern_cache", pattern_cache, 1))
+                pattern_cache=check_int("pattern_cache", pattern_cache, 1),
+                pattern_store=pattern_store)
     _check_method(method, prepared)
     n, nq = prepared[0].model.n, prepared[0].model.n_quad
-    # expo pattern cache: at most ~100 MB per point in flight
+    # expo pattern cache: at most ~100 MB per thread
     opts["pattern_cache"] = max(2, min(opts["pattern_cache"], int(1e8 // (2 * (2 * n) ** 2 * 16 + 1))))
     stk = stack_points(prepared, div_limit)
     sched = _schedule(prepared, method, steps_per_period, step_factor, dpp, n_trans, n_rec,

@@ -120,7 +120,8 @@ def expo_copy_supported(params: dict) -> bool:
             and mu_k is not None and float(mu_s) > float(mu_k))
 
 
-def simulate_runs(points: list[dict], nm: Numerics, threads: int) -> list[dict]:
+def simulate_runs(points: list[dict], nm: Numerics, threads: int,
+                  pattern_store=None) -> list[dict]:
     """Reference trajectory of each point in one batch: ``n_transient`` periods discarded,
     ``n_record`` recorded, and the final state (restart point of the Lyapunov stage).
 
@@ -143,12 +144,18 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int) -> list[dict]:
     Zeno fallback: a point whose ``expo`` runs met ``expo``'s Zeno guard (a stick/slip switch
     cascade cut short and the state put on the step end: a jump in time,
     ``SimResult.n_zeno``) is run again, all of it, on RK4 (``step_factor``); its ``method``
-    is then :data:`ZENO_FALLBACK`."""
+    is then :data:`ZENO_FALLBACK`.
+
+    ``pattern_store``: ``expo``'s stick-pattern decompositions
+    (:class:`beamsim.pattern_store.PatternStore`; default: one for this call, shared by its
+    runs), a cost, not a result."""
     from analysis.regimes import continuation_reason, transient_reason
+    from beamsim.pattern_store import PatternStore
     from beamsim.simulate import restart_params, simulate_batch
 
     kw = dict(n_record=nm.n_record, method=integrator(nm.method, points[0]["params"]),
-              steps_per_period=nm.steps_per_period, step_factor=nm.step_factor, n_threads=threads)
+              steps_per_period=nm.steps_per_period, step_factor=nm.step_factor, n_threads=threads,
+              pattern_store=pattern_store or PatternStore())
     results = list(simulate_batch([p["params"] for p in points], n_transient=nm.n_transient,
                                   **kw).results)
     zeno = [r.n_zeno for r in results]  # steps ended by expo's Zeno guard, over every run
@@ -236,8 +243,11 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int) -> list[dict]:
 def simulate_points(points: Sequence[dict], numerics: Numerics | dict, store_root: str,
                     threads: int = 1) -> pd.DataFrame:
     """Stage 1: time integration; one row per point with its Poincare samples."""
+    from beamsim.pattern_store import PatternStore
+
     store = PointStore(store_root, "simulate")
     nm = as_numerics(numerics)
+    patterns = PatternStore()  # expo's decompositions, shared by the stage's batches
 
     def compute(batch: list[dict]) -> list[dict]:
         # a batch must share the state size and the integrator
@@ -247,7 +257,7 @@ def simulate_points(points: Sequence[dict], numerics: Numerics | dict, store_roo
             groups.setdefault(key, []).append(i)
         recs: list = [None] * len(batch)
         for idx in groups.values():
-            for i, rec in zip(idx, simulate_runs([batch[i] for i in idx], nm, threads)):
+            for i, rec in zip(idx, simulate_runs([batch[i] for i in idx], nm, threads, patterns)):
                 recs[i] = rec
         return recs
 

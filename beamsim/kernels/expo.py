@@ -36,9 +36,14 @@ from beamsim.results import FLAG_N_CHECKS, FLAG_N_EVENTS, FLAG_N_PATTERNS, FLAG_
 #: power rows ``cg = g V_v``, the modal load ``gam = V^-1 [0; M^-1 g]``; the mode order
 #: (:func:`_pair_conjugates`): ``nc`` modes with ``Im lam > 0``, then the real ones, up to
 #: ``nh``, then the conjugates of the first ``nc``; ``wt`` the weight of each of the first
-#: ``nh`` modes in a real sum (2: the mode and its conjugate, 1: a real mode)
+#: ``nh`` modes in a real sum (2: the mode and its conjugate, 1: a real mode); ``count``
+#: ``(filled slots, decompositions stored)``, ``model`` the model key of the entries.  An entry
+#: depends on the model's matrices and the pattern only (the resonance guard, which depends on
+#: a point's forcing frequency, is applied per point: :func:`resonant`), so trajectories
+#: of every point of one model can share a cache, one trajectory at a time
+#: (:func:`use_model`).
 PatternCache = namedtuple("PatternCache", ("keys", "lam", "V", "Vi", "SVq", "SVv", "cg", "gam",
-                                           "nh", "nc", "wt"))
+                                           "nh", "nc", "wt", "count", "model"))
 
 #: one pattern's entries of the cache
 Modes = namedtuple("Modes", ("lam", "V", "Vi", "SVq", "SVv", "cg", "gam", "nh", "nc", "wt"))
@@ -47,14 +52,18 @@ Modes = namedtuple("Modes", ("lam", "V", "Vi", "SVq", "SVv", "cg", "gam", "nh", 
 #: ``zeta0`` (interval start), ``zeta`` (current), ``ztmp``, modal forcing ``beta``, the
 #: interface load ``rv``, rate bounds ``r1, r2`` and ``rate``, modal rate ``zdot``, slips
 #: ``sbuf``, slip rates ``sdbuf``, event functions ``fcur, fprev``, counters ``cnt`` (filled
-#: cache slots, decompositions, events, checks); ``n_sub`` checks per step at least
+#: decompositions computed, events, checks, Zeno-guard steps); ``n_sub`` checks per step at
+#: least; ``glam`` the eigenvalues of the slot ``gslot[0]`` with the point's resonance guard
+#: applied (``gslot[0] = -1``: the current slot needs none, :func:`_pattern_slot`)
 ExpoWork = namedtuple("ExpoWork", ("free", "stuck", "xr", "zeta0", "zeta", "ztmp", "beta", "rv",
                                    "r1", "r2", "zdot", "sbuf", "sdbuf", "fcur", "fprev", "rate",
-                                   "cnt", "n_sub"))
+                                   "cnt", "n_sub", "glam", "gslot"))
 
-_FILLED, _N_EIG, _N_EVENTS, _N_CHECKS, _N_ZENO = 0, 1, 2, 3, 4
+_N_EIG, _N_EVENTS, _N_CHECKS, _N_ZENO = 0, 1, 2, 3
 #: length of the counters ``cnt``
-N_COUNTERS = 5
+N_COUNTERS = 4
+#: ``PatternCache.count``: filled slots, decompositions stored
+_FILLED, _STORED = 0, 1
 
 
 @njit(cache=True)
@@ -106,9 +115,9 @@ def _pattern(stuck, pt):
     with the stuck set ``stuck`` (springs k_t at the stuck points).  Undamped: from the real
     symmetric problem ``K_P phi = omega^2 M phi`` (lam = +-i omega, V and V^-1 in closed
     form); damped: complex eigen-decomposition, conjugate pairs ordered by
-    :func:`_pair_conjugates`.  Eigenvalues within 1e-9 of +-i omega_f are shifted by
-    -1e-9 (|lam| + omega_f) (exact-resonance guard).  Returns the :data:`Modes` entries."""
-    Mm, Km, S, wq, kt, g, om = pt.Mm, pt.Km, pt.S, pt.wq, pt.kt, pt.g, pt.om
+    :func:`_pair_conjugates`.  Depends on the model's matrices only (not on the forcing:
+    the resonance guard is :func:`resonant`).  Returns the :data:`Modes` entries."""
+    Mm, Km, S, wq, kt, g = pt.Mm, pt.Km, pt.S, pt.wq, pt.kt, pt.g
     n = Km.shape[0]
     nq = S.shape[0]
     n2 = 2 * n
@@ -155,10 +164,6 @@ def _pattern(stuck, pt):
         Vi = np.linalg.inv(V)
     if not pt.damp:
         nh = nc = n
-    for k in range(n2):
-        tol = 1e-9 * (abs(lam[k]) + om)
-        if abs(lam[k] - 1j * om) < tol or abs(lam[k] + 1j * om) < tol:
-            lam[k] = lam[k] - tol
     wt = np.zeros(n2)
     for k in range(nh):
         wt[k] = 2.0 if k < nc else 1.0
@@ -302,16 +307,18 @@ def _pattern_key(wk, x):
 
 @njit(cache=True)
 def _fill_slot(key, cache, wk, pt):
-    """Eigen-decompose the pattern ``wk.stuck`` (bit key ``key``) into a cache slot; returns it."""
+    """Eigen-decompose the pattern ``wk.stuck`` (bit key ``key``) into a cache slot (the next
+    empty one; when the cache is full, the slots in turn); returns it."""
     lam_, V_, Vi_, SVq_, SVv_, cg_, gam_, nh_, nc_, wt_ = _pattern(wk.stuck, pt)
-    cnt = wk.cnt
-    cnt[_N_EIG] += 1
+    wk.cnt[_N_EIG] += 1
+    count = cache.count
     C = cache.keys.shape[0]
-    if cnt[_FILLED] < C:
-        slot = cnt[_FILLED]
-        cnt[_FILLED] += 1
+    if count[_FILLED] < C:
+        slot = count[_FILLED]
+        count[_FILLED] += 1
     else:
-        slot = cnt[_N_EIG] % C
+        slot = count[_STORED] % C
+    count[_STORED] += 1
     cache.keys[slot] = key
     cache.lam[slot] = lam_
     cache.V[slot] = V_
@@ -324,6 +331,29 @@ def _fill_slot(key, cache, wk, pt):
     cache.nc[slot] = nc_
     cache.wt[slot] = wt_
     return slot
+
+
+@njit(**LEAF)
+def resonant(lam, om):
+    """True if an eigenvalue is within ``tol = 1e-9 (|lam| + om)`` of ``+-i om``: the
+    exact-resonance guard of a point with forcing frequency ``om`` (the closed forms divide by
+    ``+-i om - lam``) must shift it (:func:`shift_resonant`)."""
+    for k in range(lam.shape[0]):
+        tol = 1e-9 * (abs(lam[k]) + om)
+        if abs(lam[k] - 1j * om) < tol or abs(lam[k] + 1j * om) < tol:
+            return True
+    return False
+
+
+@njit(**LEAF)
+def shift_resonant(lam, om, out):
+    """``out = lam`` with every eigenvalue within ``tol`` of ``+-i om`` (:func:`resonant`)
+    shifted by ``-tol``; ``out`` may be ``lam``."""
+    for k in range(lam.shape[0]):
+        tol = 1e-9 * (abs(lam[k]) + om)
+        out[k] = lam[k]
+        if abs(lam[k] - 1j * om) < tol or abs(lam[k] + 1j * om) < tol:
+            out[k] = lam[k] - tol
 
 
 @njit(cache=True)
@@ -538,24 +568,34 @@ def _apply_events(t_ev, md, wk, x, pt, tally):
 
 
 @njit(cache=True)
-def new_cache(pt, cache_size):
-    """An empty :data:`PatternCache` of ``cache_size`` slots for the points of ``pt``'s model
-    (slots allocated, touched only when filled)."""
-    n2 = 2 * pt.Mm.shape[0]
-    nq = pt.S.shape[0]
+def new_cache(n, nq, cache_size):
+    """An empty :data:`PatternCache` of ``cache_size`` slots for a model of ``n`` coordinates
+    and ``nq`` interface points (slots allocated, touched only when filled; model key 0, see
+    :func:`use_model`)."""
+    n2 = 2 * n
     C = cache_size
     return PatternCache(np.full(C, -1, np.int64), np.empty((C, n2), np.complex128),
                         np.empty((C, n2, n2), np.complex128), np.empty((C, n2, n2), np.complex128),
                         np.empty((C, nq, n2), np.complex128), np.empty((C, nq, n2), np.complex128),
                         np.empty((C, n2), np.complex128), np.empty((C, n2), np.complex128),
-                        np.zeros(C, np.int64), np.zeros(C, np.int64), np.zeros((C, n2)))
+                        np.zeros(C, np.int64), np.zeros(C, np.int64), np.zeros((C, n2)),
+                        np.zeros(2, np.int64), np.zeros(1, np.int64))
+
+
+@njit(**LEAF)
+def use_model(cache, model):
+    """Make ``cache`` hold the decompositions of the model with key ``model`` (emptied if it
+    held another model's).  The key must identify every matrix :func:`_pattern` reads
+    (``beamsim.pattern_store.model_keys``)."""
+    if cache.model[0] != model:
+        cache.count[_FILLED] = 0
+        cache.model[0] = model
 
 
 @njit(cache=True)
 def new_scratch(pt, n_sub, cnt):
     """The :data:`ExpoWork` scratch of one trajectory with the counters ``cnt`` (``int64``,
-    :data:`N_COUNTERS`; ``cnt[0]`` is the number of filled slots of the cache the scratch is used with, so
-    trajectories that share a cache share ``cnt``)."""
+    :data:`N_COUNTERS`; trajectories may share them)."""
     n = pt.Mm.shape[0]
     nq = pt.S.shape[0]
     n2 = 2 * n
@@ -566,38 +606,44 @@ def new_scratch(pt, n_sub, cnt):
                     np.empty(n2, np.complex128), np.empty(n2, np.complex128),
                     np.empty(n2, np.complex128), np.empty(n), np.empty(n2), np.empty(n2),
                     np.empty(n2, np.complex128), np.empty(nq), np.empty(nq), np.empty(nq),
-                    np.empty(nq), np.empty(nq), cnt, n_sub)
-
-
-@njit(cache=True)
-def _new_work(pt, n_sub, cache_size):
-    """Empty pattern cache and scratch of a point."""
-    return new_cache(pt, cache_size), new_scratch(pt, n_sub, np.zeros(N_COUNTERS, np.int64))
+                    np.empty(nq), np.empty(nq), cnt, n_sub, np.empty(n2, np.complex128),
+                    np.full(1, -1, np.int64))
 
 
 @njit(cache=True, inline="always")
-def _modes(cache, slot):
-    return Modes(cache.lam[slot], cache.V[slot], cache.Vi[slot], cache.SVq[slot],
+def _modes(cache, slot, wk):
+    """The :data:`Modes` of cache slot ``slot`` as trajectory ``wk`` uses them (with its
+    point's resonance guard, :func:`resonant`)."""
+    lam = wk.glam if slot == wk.gslot[0] else cache.lam[slot]
+    return Modes(lam, cache.V[slot], cache.Vi[slot], cache.SVq[slot],
                  cache.SVv[slot], cache.cg[slot], cache.gam[slot], cache.nh[slot],
                  cache.nc[slot], cache.wt[slot])
 
 
 @njit(cache=True)
 def _pattern_slot(cache, wk, x, pt):
-    """Cache slot of the current stick pattern (decomposed on a miss)."""
+    """Cache slot of the current stick pattern (decomposed on a miss), its resonance guard
+    for this point noted in ``wk``."""
     key = _pattern_key(wk, x)
-    nf = wk.cnt[_FILLED]
-    for c in range(nf):
+    slot = -1
+    for c in range(cache.count[_FILLED]):
         if cache.keys[c] == key:
-            return c
-    return _fill_slot(key, cache, wk, pt)
+            slot = c
+            break
+    if slot < 0:
+        slot = _fill_slot(key, cache, wk, pt)
+    wk.gslot[0] = -1
+    if resonant(cache.lam[slot], pt.om):
+        shift_resonant(cache.lam[slot], pt.om, wk.glam)
+        wk.gslot[0] = slot
+    return slot
 
 
 @njit(**LEAF)
 def _interval(t0, t_end, slot, cache, wk, x, pt, tally):
     """From ``t0`` in the pattern of cache slot ``slot`` to its first switch (applied) or to
     the step end ``t_end``; returns ``(time reached, True if it is a switch)``."""
-    md = _modes(cache, slot)
+    md = _modes(cache, slot, wk)
     n2 = wk.zeta.shape[0]
     span = t_end - t0
     ev_tau = _find_event(t0, span, md, wk, x, pt)
@@ -627,7 +673,7 @@ def _step(t0, t_end, slot, cache, wk, x, pt, tally):
     while True:
         if slot < 0:
             slot = _pattern_slot(cache, wk, x, pt)
-            _project(_modes(cache, slot), wk, x, pt)
+            _project(_modes(cache, slot, wk), wk, x, pt)
         t0, switched = _interval(t0, t_end, slot, cache, wk, x, pt, tally)
         if not switched:
             return t0, slot
@@ -640,11 +686,14 @@ def _step(t0, t_end, slot, cache, wk, x, pt, tally):
 
 
 @njit(cache=True)
-def expo_point(p, pt, sched, x0, n_sub, cache_size, out):
+def expo_point(p, pt, sched, x0, n_sub, cache, model, out):
     """Integrate point ``p`` (the step contract of :mod:`beamsim.kernels`); ``n_sub``: checks
-    per step at least, ``cache_size``: stick patterns whose decomposition is kept."""
+    per step at least; ``cache``: the :data:`PatternCache` it uses (and may fill), ``model``:
+    the key of the point's model (:func:`use_model`).  The result does not depend on what the
+    cache holds: a decomposition found there is the one the point would compute."""
     x, tally, e0 = common.start_point(p, x0, pt, sched, out)
-    cache, wk = _new_work(pt, n_sub, cache_size)
+    use_model(cache, model)
+    wk = new_scratch(pt, n_sub, np.zeros(N_COUNTERS, np.int64))
     n_per = sched.n_per
     slot = -1
     t0 = 0.0
@@ -667,8 +716,9 @@ def expo_point(p, pt, sched, x0, n_sub, cache_size, out):
 
 
 @njit(cache=True, nogil=True)
-def run_point(stk, steps, n_sub, cache_size, out, p):
+def run_point(stk, steps, n_sub, models, out, cache, p):
     """expo on point ``p`` of a batch (full damping matrix; an item of
-    :func:`beamsim.kernels.thread_pool.run_items`)."""
-    expo_point(p, point_at(stk, p, False), schedule_at(steps, p), stk.x0[p], n_sub,
-               cache_size, out)
+    :func:`beamsim.kernels.thread_pool.run_items` with the calling thread's ``cache``);
+    ``models[p]``: the key of point ``p``'s model."""
+    expo_point(p, point_at(stk, p, False), schedule_at(steps, p), stk.x0[p], n_sub, cache,
+               models[p], out)

@@ -56,9 +56,9 @@ ExpoCopyOptions = namedtuple("ExpoCopyOptions", ("n_sub", "cache_size", "tau_a")
 DriveLog = namedtuple("DriveLog", ("t", "slot", "key", "zeta0", "beta", "mode", "z", "count"))
 
 #: the copies' rows (0: the drive) and their bookkeeping: states, carried log rescaling
-#: factors, live flags, cache slots, and the start time of each element's stick/slip mismatch
-#: with the drive (``-1``: none)
-Rows = namedtuple("Rows", ("Q", "V", "Z", "MODE", "logacc", "alive", "slots", "mstart"))
+#: factors, live flags, cache slots and the pattern keys they held when taken, and the start
+#: time of each element's stick/slip mismatch with the drive (``-1``: none)
+Rows = namedtuple("Rows", ("Q", "V", "Z", "MODE", "logacc", "alive", "slots", "keys", "mstart"))
 
 
 @njit(cache=True, inline="always")
@@ -95,7 +95,7 @@ def _drive_step(t0, t_end, slot, cache, wk, x, pt, tally, log):
     while True:
         if slot < 0:
             slot = expo._pattern_slot(cache, wk, x, pt)
-            expo._project(expo._modes(cache, slot), wk, x, pt)
+            expo._project(expo._modes(cache, slot, wk), wk, x, pt)
         _log_interval(log, k, t0, slot, cache.keys[slot], wk, x)
         k += 1
         t0, switched = expo._interval(t0, t_end, slot, cache, wk, x, pt, tally)
@@ -127,16 +127,24 @@ def _drive_modes(k, cache, log, pt, wk):
     been reused since) and a scratch with its modal state and forcing at the interval's start."""
     slot = log.slot[k]
     if cache.keys[slot] == log.key[k]:
-        md = expo._modes(cache, slot)
+        lam = cache.lam[slot]
+        if expo.resonant(lam, pt.om):
+            lam = np.empty_like(lam)
+            expo.shift_resonant(cache.lam[slot], pt.om, lam)
+        md = expo.Modes(lam, cache.V[slot], cache.Vi[slot], cache.SVq[slot], cache.SVv[slot],
+                        cache.cg[slot], cache.gam[slot], cache.nh[slot], cache.nc[slot],
+                        cache.wt[slot])
     else:
         for j in range(log.mode.shape[1]):
             wk.stuck[j] = log.mode[k, j] == 0 and not wk.free[j]
         lam, V, Vi, SVq, SVv, cg, gam, nh, nc, wt = expo._pattern(wk.stuck, pt)
         c = np.ascontiguousarray
-        md = expo.Modes(c(lam), c(V), c(Vi), c(SVq), c(SVv), c(cg), c(gam), nh, nc, c(wt))
+        lam = c(lam)
+        expo.shift_resonant(lam, pt.om, lam)
+        md = expo.Modes(lam, c(V), c(Vi), c(SVq), c(SVv), c(cg), c(gam), nh, nc, c(wt))
     w = expo.ExpoWork(wk.free, wk.stuck, wk.xr, log.zeta0[k], wk.zeta, wk.ztmp, log.beta[k], wk.rv,
                       wk.r1, wk.r2, wk.zdot, wk.sbuf, wk.sdbuf, wk.fcur, wk.fprev, wk.rate, wk.cnt,
-                      wk.n_sub)
+                      wk.n_sub, wk.glam, wk.gslot)
     return md, w
 
 
@@ -237,7 +245,12 @@ def _copy_step(r, t0, t1, rows, work, pt, tally, opts, spec, band):
         if t_next > t:
             if rows.slots[r] < 0:
                 rows.slots[r] = expo._pattern_slot(cache_y, wk, y, pt)
-                expo._project(expo._modes(cache_y, rows.slots[r]), wk, y, pt)
+                rows.keys[r] = cache_y.keys[rows.slots[r]]
+                expo._project(expo._modes(cache_y, rows.slots[r], wk), wk, y, pt)
+            elif cache_y.keys[rows.slots[r]] != rows.keys[r]:
+                # another copy's decomposition took the slot (a full cache): the same pattern
+                # decomposed again is the same to the bit, so the modal state stays valid
+                rows.slots[r] = expo._pattern_slot(cache_y, wk, y, pt)
             t_reached, switched = expo._interval(t, t_next, rows.slots[r], cache_y, wk, y, pt, tally)
             if switched:
                 rows.slots[r] = -1
@@ -305,7 +318,7 @@ def _new_rows(x_start, spec, c0, c1, n, nq):
             Z[r, j] = x_start[2 * n + j] + (spec.offsets[c0 + r - 1, 2 * n + j] if r > 0 else 0.0)
             MODE[r, j] = int(x_start[2 * n + nq + j])
     return Rows(Q, V, Z, MODE, np.zeros(R - 1), np.ones(R, np.bool_), np.full(R, -1, np.int64),
-                np.full((R, nq), -1.0))
+                np.full(R, -1, np.int64), np.full((R, nq), -1.0))
 
 
 @njit(cache=True)
@@ -322,7 +335,7 @@ def expo_copies_task(p, c0, c1, pt, sch, x_start, spec, band, opts, log_err, fin
     nq = pt.S.shape[0]
     rows = _new_rows(x_start, spec, c0, c1, n, nq)
     R = c1 - c0 + 1
-    caches = (expo.new_cache(pt, opts.cache_size), expo.new_cache(pt, opts.cache_size))
+    caches = (expo.new_cache(n, nq, opts.cache_size), expo.new_cache(n, nq, opts.cache_size))
     cnts = (np.zeros(expo.N_COUNTERS, np.int64), np.zeros(expo.N_COUNTERS, np.int64))
     wks = [expo.new_scratch(pt, opts.n_sub, cnts[0] if r == 0 else cnts[1]) for r in range(R)]
     log = _new_log(2 * n, nq, 10 * nq + 12)

@@ -9,26 +9,50 @@ kernel a second time (measured: docs/performance.md, "Not done yet", compile tim
 
 Every item writes only its own rows of the output arrays, so the results do not depend on the
 number of threads or on which thread runs an item (bitwise).  Items are handed out one at a
-time to whichever thread is free.
+time, in their order, to whichever thread is free.  A thread may carry state of its own from
+item to item (``per_thread``: ``expo``'s pattern caches, :mod:`beamsim.pattern_store`), which
+must then not change any result either.
 """
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 
 
-def run_items(kernel: Callable, args: tuple, items: Sequence[int], threads: int) -> None:
+def run_items(kernel: Callable, args: tuple, items: Sequence[int], threads: int,
+              per_thread: Sequence | None = None) -> None:
     """Call ``kernel(*args, i)`` for every ``i`` of ``items`` on ``threads`` threads (in the
-    calling thread if ``threads`` is 1 or there is one item).  numba compiles the kernel, or
-    loads it from its cache, on its first call under its compiler lock, so the first calls of
-    several threads wait for one compilation.  An exception of any call is raised here after
-    the pool has finished."""
+    calling thread if ``threads`` is 1 or there is one item); with ``per_thread`` (at least
+    ``min(threads, len(items))`` entries) thread ``w`` calls ``kernel(*args, per_thread[w], i)``.
+    numba compiles the kernel, or loads it from its cache, on its first call under its compiler
+    lock, so the first calls of several threads wait for one compilation.  An exception of any
+    call is raised here after the pool has finished."""
     items = [int(i) for i in items]
-    if threads <= 1 or len(items) <= 1:
+    workers = max(1, min(threads, len(items)))
+    if per_thread is not None and len(per_thread) < workers:
+        raise ValueError(f"per_thread has {len(per_thread)} entries for {workers} threads")
+
+    def extra(w: int) -> tuple:
+        return () if per_thread is None else (per_thread[w],)
+
+    if workers == 1:
         for i in items:
-            kernel(*args, i)
+            kernel(*args, *extra(0), i)
         return
-    with ThreadPoolExecutor(max_workers=min(threads, len(items))) as pool:
-        for _ in pool.map(lambda i: kernel(*args, i), items):
-            pass
+    queue = iter(items)
+    lock = threading.Lock()
+
+    def work(w: int) -> None:
+        while True:
+            with lock:
+                i = next(queue, None)
+            if i is None:
+                return
+            kernel(*args, *extra(w), i)
+
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        futures = [pool.submit(work, w) for w in range(workers)]
+    for f in futures:
+        f.result()

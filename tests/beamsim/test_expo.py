@@ -1,13 +1,18 @@
 """expo: the conjugate-pair ordering (the damped system's modes are evaluated half as often) and
-the pattern cache (its size changes the cost, not the result)."""
+the pattern cache (its size, and its sharing across points and runs, change the cost, not the
+result)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from beamsim.kernels import expo
+from beamsim.kernels.bundles import State, point_at
 from beamsim.kernels.expo import _pair_conjugates
-from beamsim.simulate import simulate
+from beamsim.pattern_store import PatternStore, model_keys
+from beamsim.point import stack_points
+from beamsim.simulate import prepare_point, simulate, simulate_batch
 
 
 def _oscillators(*pairs):
@@ -84,3 +89,76 @@ def test_the_pattern_cache_size_changes_the_cost_not_the_result():
     assert small.n_patterns > 2 * default.n_patterns  # the small cache did evict and recompute
     assert np.array_equal(small.poincare_state, default.poincare_state)
     assert np.array_equal(small.final_state, default.final_state)
+
+
+#: default-grid points (two modes) and one of another model (a stiffer stick)
+_SHARED = [dict(n_modes=2, mu_s=0.45, mu_k=0.3, Omega=om, f0_rel=f, **kw)
+           for om, f, kw in ((1.85, 2.0, {}), (1.85, 2.2, {}), (2.5, 1.4, {}), (1.85, 2.0, {"k_t": 30.0}),
+                             (1.7, 2.6, {}))]
+
+
+def _same(a, b):
+    for name in ("poincare_state", "final_state", "energy"):
+        assert np.array_equal(getattr(a, name), getattr(b, name), equal_nan=True), name
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_a_shared_pattern_store_changes_the_cost_not_the_result(threads):
+    """Points of one model share decompositions (within a batch and, through a store, across
+    batches); a point of another model (k_t 30) in the same batch must not be served them.
+    Every result is the one of the point run alone, to the bit."""
+    kw = dict(n_transient=3, n_record=5, method="expo")
+    alone = [simulate(**kw, **p) for p in _SHARED]
+    store = PatternStore()
+    mixed = simulate_batch(_SHARED, n_threads=threads, pattern_store=store, **kw).results
+    one_model = [p for p in _SHARED if "k_t" not in p]
+    first = simulate_batch(one_model, n_threads=threads, pattern_store=store, **kw).results
+    again = simulate_batch(one_model, n_threads=threads, pattern_store=store, **kw).results
+    for a, b in zip(alone, mixed):
+        _same(a, b)
+    for a, b, c in zip([r for r, p in zip(alone, _SHARED) if "k_t" not in p], first, again):
+        _same(a, b)
+        _same(a, c)
+    n_alone, n_mixed, n_first, n_again = (sum(r.n_patterns for r in rs)
+                                          for rs in (alone, mixed, first, again))
+    print(f"\ndecompositions: {n_alone} alone, {n_mixed} in a batch, {n_first} and {n_again} "
+          "in two batches of one model")
+    n_alone_one = sum(r.n_patterns for r, p in zip(alone, _SHARED) if "k_t" not in p)
+    # with two threads the counts depend on which thread ran which point (not the results)
+    assert n_mixed < n_alone and n_first < n_alone_one and n_again < n_alone_one
+    if threads == 1:
+        assert n_again == 0   # the thread's cache holds every pattern of the model
+
+
+def test_the_model_key_separates_models_and_only_them():
+    pts = [prepare_point(**p) for p in _SHARED]
+    keys = model_keys(stack_points(pts))
+    assert len(set(keys[[0, 1, 2, 4]])) == 1      # load and frequency are not the model
+    assert keys[3] != keys[0]                       # the stick stiffness is
+
+
+def test_the_resonance_guard_is_the_points_own():
+    """A decomposition cached by one point, looked up by a point whose forcing frequency is a
+    natural frequency of that pattern: the second point gets the guard's shifted eigenvalue
+    (as if it had decomposed the pattern itself), the cache keeps the unshifted one."""
+    pp = prepare_point(**_SHARED[0])
+    pt = point_at(stack_points([pp]), 0, False)
+    cache = expo.new_cache(pp.model.n, pp.model.n_quad, 4)
+    wk = expo.new_scratch(pt, 4, np.zeros(expo.N_COUNTERS, np.int64))
+    x = State(np.zeros(pp.model.n), np.zeros(pp.model.n), np.zeros(pp.model.n_quad),
+                   np.zeros(pp.model.n_quad, np.int64))
+    slot = expo._pattern_slot(cache, wk, x, pt)
+    assert wk.gslot[0] == -1                       # the point's own frequency is not resonant
+    lam = cache.lam[slot].copy()
+    k = int(np.argmax(lam.imag))
+    om = float(lam[k].imag)
+    pt2 = pt._replace(om=om)
+    wk2 = expo.new_scratch(pt2, 4, np.zeros(expo.N_COUNTERS, np.int64))
+    assert expo._pattern_slot(cache, wk2, x, pt2) == slot and wk2.gslot[0] == slot
+    seen = expo._modes(cache, slot, wk2).lam
+    tol = 1e-9 * (np.abs(lam) + om)
+    hit = (np.abs(lam - 1j * om) < tol) | (np.abs(lam + 1j * om) < tol)
+    assert hit.sum() == 2                          # +-i om: the mode and its conjugate
+    assert np.array_equal(seen, np.where(hit, lam - tol, lam))
+    assert np.array_equal(cache.lam[slot], lam)    # the cache is not touched
+    assert np.array_equal(expo._modes(cache, slot, wk).lam, lam)

@@ -163,6 +163,22 @@ def test_results_do_not_depend_on_threads_or_other_copies(settled):
     assert np.array_equal(a[:, :1], c)
 
 
+def test_copies_sharing_a_full_pattern_cache_keep_their_decompositions(settled):
+    """The copies of a task share a pattern cache; when it is full, one copy's decomposition
+    takes the slot another copy is using, which must then look its pattern up again rather
+    than run on the other's modes.  A two-slot cache (full at once) gives the result of the
+    default one, to the bit."""
+    res, prepared, scales = settled
+    pp = prepared[0]
+    off = np.concatenate([_offsets(pp, scales[0], (1e-4, 1e-3)),
+                          initial_offset(pp, scales[0], 1e-3, seed=1)[None, None]], axis=1)
+    args = ([pp], res[0].final_state[None], off, np.zeros((1, 3)), 1 / scales[:1])
+    kw = dict(n_periods=3, e0=1e-4, method="expo", n_threads=1, split=1, return_final=True)
+    a = run_copies(*args, **kw)
+    b = run_copies(*args, pattern_cache=2, **kw)
+    assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
+
+
 def test_expo_copies_are_free_and_stick_slip_only(settled):
     res, prepared, scales = settled
     pp = prepared[0]

@@ -38,3 +38,29 @@ def test_the_item_kernels_release_the_gil():
     for kernel in (rk4.run_point, rk4.run_point_rigid, expo.run_point, newmark.run_point,
                    copies.run_task, copies.run_task_rigid):
         assert kernel.targetoptions.get("nogil") is True, kernel
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3])
+def test_each_thread_has_its_own_per_thread_object(threads):
+    """``per_thread``: a thread's calls get its own entry, and no entry is in two calls at once
+    (expo's pattern caches must never be filled by two points together)."""
+    import time
+
+    busy, seen, lock = set(), [], threading.Lock()
+
+    def kernel(tag, mine, i):
+        with lock:
+            assert mine not in busy
+            busy.add(mine)
+            seen.append((i, mine, threading.get_ident()))
+        time.sleep(0.002)
+        with lock:
+            busy.discard(mine)
+
+    run_items(kernel, ("x",), range(12), threads, per_thread=[f"cache{w}" for w in range(threads)])
+    assert sorted(i for i, _, _ in seen) == list(range(12))
+    owner = {}
+    for _, mine, ident in seen:
+        assert owner.setdefault(mine, ident) == ident  # an entry stays with its thread
+    with pytest.raises(ValueError, match="per_thread"):
+        run_items(kernel, ("x",), range(4), 2, per_thread=["only one"])
