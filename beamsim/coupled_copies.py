@@ -51,6 +51,7 @@ import numpy as np
 from beamsim.friction import RIGID_STICK
 from beamsim.kernels import copies, expo_copies
 from beamsim.kernels.thread_pool import run_items
+from beamsim.pattern_store import PatternStore, model_keys
 from beamsim.point import check_method_law, period_steps, stack_points
 from beamsim.two_layer import check_int, check_positive
 
@@ -64,7 +65,7 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
                n_threads: int | None = None, split: int | None = None,
                div_limit: float = 1e6, return_final: bool = False, method: str = "rk4",
                event_checks: int = 4, pattern_cache: int = 2048, adoption: str = "window",
-               zeno_out: np.ndarray | None = None):
+               zeno_out: np.ndarray | None = None, pattern_store: PatternStore | None = None):
     """Integrate the drive and its copies for ``n_periods`` forcing periods (see the module
     docstring) and return ``ln eps`` of shape ``(P, M, n_periods + 1)`` at the period
     boundaries (``nan``: the drive diverged; ``+inf``: the copy did).
@@ -92,9 +93,9 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
         exactly between their own located switches; stick-slip law and free copies, ``d = 0``,
         only).  With ``expo`` the copies are measured and rescaled at the ``expo`` output
         grid's step ends (``steps_per_period``, default 64 per period) and ``step_factor`` is
-        not used; ``event_checks`` and ``pattern_cache`` are ``expo``'s
-        (:func:`beamsim.simulate.simulate_batch`; here the slots of each of two caches, the
-        drive's and the copies').
+        not used; ``event_checks``, ``pattern_cache`` and ``pattern_store`` are ``expo``'s
+        (:func:`beamsim.simulate.simulate_batch`; a thread's drives and copies share its
+        cache).
     adoption : ``expo`` only: how a copy takes the drive's stick/slip state where the two
         differ (:mod:`beamsim.kernels.expo_copies`): ``"window"`` once the mismatch has lasted
         ``tau_a = step_factor / (2 omega_max)``, half the RK4 pair's step (the mean delay with
@@ -138,10 +139,9 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
         if adoption not in ("window", "grid"):
             raise ValueError(f"adoption must be 'window' or 'grid', got {adoption!r}")
         event_checks = check_int("event_checks", event_checks, 1)
-        # at most ~100 MB of decompositions per task in flight (as simulate_batch), in two
-        # caches (the drive's and the copies')
+        # at most ~100 MB of decompositions per thread (as simulate_batch)
         pattern_cache = max(2, min(check_int("pattern_cache", pattern_cache, 1),
-                                   int(0.5e8 // (2 * (2 * n) ** 2 * 16 + 1))))
+                                   int(1e8 // (2 * (2 * n) ** 2 * 16 + 1))))
     stk = stack_points(prepared, div_limit)
     h = np.empty(P)
     n_per = np.empty(P, np.int64)
@@ -163,9 +163,16 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
     if method == "expo":
         tau_a = np.array([0.5 * step_factor / pp.omega_max if adoption == "window" else 0.0
                           for pp in prepared])
-        opts = expo_copies.ExpoCopyOptions(event_checks, pattern_cache, tau_a)
+        opts = expo_copies.ExpoCopyOptions(event_checks, tau_a)
         zeno = np.zeros((P, M + 1), np.int64)
-        run_items(expo_copies.run_task, bundles + (opts, log_err, final, zeno), range(len(tasks)), threads)
+        keys = model_keys(stk)
+        # the tasks of one model one after another, so that a thread's cache keeps its model
+        items = np.argsort(keys[all_tasks[:, 0]], kind="stable")
+        workers = max(1, min(threads, items.size))
+        store = pattern_store or PatternStore()
+        with store.caches(n, nq, pattern_cache, workers) as caches:
+            run_items(expo_copies.run_task, bundles + (opts, keys, log_err, final, zeno), items,
+                      threads, per_thread=caches)
         if zeno_out is not None:
             zeno_out[...] = zeno
         return (log_err, final) if return_final else log_err

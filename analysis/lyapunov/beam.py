@@ -213,6 +213,7 @@ def _estimates(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_per
     """:func:`beam_lle` with the free copy on ``free_method`` whatever happens: the estimates
     (``None`` for a point whose ``expo`` pair met the Zeno guard) and which points did."""
     from beamsim.coupled_copies import run_copies
+    from beamsim.pattern_store import PatternStore
     from beamsim.point import period_steps
 
     P = len(prepared)
@@ -225,7 +226,9 @@ def _estimates(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_per
     free_e0 = e0 if free_e0 is None else float(free_e0)
     free_kw = dict(run_kw, e0=free_e0, method=free_method)
     if free_method == "expo":
-        free_kw["steps_per_period"] = free_steps
+        # one store for every free run of the call: the points' drives and copies share
+        # their stick-pattern decompositions (a cost, not a result)
+        free_kw.update(steps_per_period=free_steps, pattern_store=PatternStore())
     free_offs = offs if free_e0 == e0 else [initial_offset(prepared[i], scales[i], free_e0, seed)
                                               for i in range(P)]
 

@@ -3,7 +3,8 @@ own located switches (``expo``, :mod:`beamsim.kernels.expo`): the two-trajectory
 record of :mod:`beamsim.coupled_copies` without RK4's step.
 
 Every row (0: the drive, ``1 .. M``: the copies) is an ``expo`` trajectory with its own
-scratch; the drive has a pattern cache of its own, the copies share one.  Each row locates its
+scratch; all rows share the thread's pattern cache (one model: the point's), so a row whose
+slot another row's decomposition has taken looks its pattern up again.  Each row locates its
 own switches, so a copy's separation from the drive is that of two exact solutions of the
 piecewise-linear system up to the event-location tolerance.  The drive is never moved, so its
 trajectory does not depend on the copies.
@@ -46,9 +47,9 @@ from beamsim.kernels.bundles import LEAF, State, Tally, point_at
 from beamsim.kernels.copies import CopySchedule, CopySpec, adopt_modes, error, measure_copy
 from beamsim.results import N_STATS
 
-#: ``expo``'s checks per step, pattern-cache slots, and the adoption window ``tau_a`` (time
-#: units; ``<= 0``: adopt at output step ends)
-ExpoCopyOptions = namedtuple("ExpoCopyOptions", ("n_sub", "cache_size", "tau_a"))
+#: ``expo``'s checks per step and the adoption window ``tau_a`` (time units; ``<= 0``: adopt at
+#: output step ends)
+ExpoCopyOptions = namedtuple("ExpoCopyOptions", ("n_sub", "tau_a"))
 
 #: the drive's intervals within one output step: start time, cache slot and its pattern key,
 #: modal state and forcing at the start, stick/slip modes and slips at the start; ``count[0]``
@@ -188,7 +189,7 @@ def _note_mismatches(r, t, rows, log):
 
 
 @njit(cache=True)
-def _adopt_due(r, t, tau_a, rows, log, cache_x, pt, wk, spec, band, scratch):
+def _adopt_due(r, t, tau_a, rows, log, cache, pt, wk, spec, band, scratch):
     """Copy ``r`` at time ``t``: every mismatch that has lasted ``tau_a`` takes the drive's
     stick/slip state and elastic strain (while the copy is within ``10 e0`` of the drive; else
     it waits another ``tau_a``).  Returns True if the copy was changed."""
@@ -199,7 +200,7 @@ def _adopt_due(r, t, tau_a, rows, log, cache_x, pt, wk, spec, band, scratch):
     if not due:
         return False
     q, v, strain = scratch
-    _drive_at(t, log, cache_x, pt, wk, q, v, strain)
+    _drive_at(t, log, cache, pt, wk, q, v, strain)
     y = _row(rows, r)
     if error(q, v, y.q, y.v, spec.inv_scale) > 10.0 * band.e0:
         for j in range(rows.MODE.shape[1]):
@@ -224,9 +225,8 @@ def _copy_step(r, t0, t1, rows, work, pt, tally, opts, spec, band):
     switches, a split at every switch of the drive (its mismatches are noted there) and at
     every adoption that falls due (``opts.tau_a > 0``).  Returns True if the step was ended
     by the Zeno guard.  ``work``: the drive's log, the two
-    pattern caches (drive, copies), every row's scratch and three scratch vectors."""
-    log, caches, wks, scratch = work
-    cache_x, cache_y = caches
+    pattern cache, every row's scratch and three scratch vectors."""
+    log, cache, wks, scratch = work
     wk = wks[r]
     y = _row(rows, r)
     tau_a = opts.tau_a
@@ -244,14 +244,14 @@ def _copy_step(r, t0, t1, rows, work, pt, tally, opts, spec, band):
                     t_next = min(t_next, max(rows.mstart[r, j] + tau_a, t))
         if t_next > t:
             if rows.slots[r] < 0:
-                rows.slots[r] = expo._pattern_slot(cache_y, wk, y, pt)
-                rows.keys[r] = cache_y.keys[rows.slots[r]]
-                expo._project(expo._modes(cache_y, rows.slots[r], wk), wk, y, pt)
-            elif cache_y.keys[rows.slots[r]] != rows.keys[r]:
+                rows.slots[r] = expo._pattern_slot(cache, wk, y, pt)
+                rows.keys[r] = cache.keys[rows.slots[r]]
+                expo._project(expo._modes(cache, rows.slots[r], wk), wk, y, pt)
+            elif cache.keys[rows.slots[r]] != rows.keys[r]:
                 # another copy's decomposition took the slot (a full cache): the same pattern
                 # decomposed again is the same to the bit, so the modal state stays valid
-                rows.slots[r] = expo._pattern_slot(cache_y, wk, y, pt)
-            t_reached, switched = expo._interval(t, t_next, rows.slots[r], cache_y, wk, y, pt, tally)
+                rows.slots[r] = expo._pattern_slot(cache, wk, y, pt)
+            t_reached, switched = expo._interval(t, t_next, rows.slots[r], cache, wk, y, pt, tally)
             if switched:
                 rows.slots[r] = -1
                 guard += 1
@@ -266,7 +266,7 @@ def _copy_step(r, t0, t1, rows, work, pt, tally, opts, spec, band):
             t = t_next
         if tau_a > 0.0:
             _note_mismatches(r, t, rows, log)
-            if _adopt_due(r, t, tau_a, rows, log, cache_x, pt, wks[0], spec, band, scratch):
+            if _adopt_due(r, t, tau_a, rows, log, cache, pt, wks[0], spec, band, scratch):
                 common.post_step(t, y, pt, tally, False, True)
                 rows.slots[r] = -1
                 _note_mismatches(r, t, rows, log)
@@ -322,7 +322,8 @@ def _new_rows(x_start, spec, c0, c1, n, nq):
 
 
 @njit(cache=True)
-def expo_copies_task(p, c0, c1, pt, sch, x_start, spec, band, opts, log_err, final, zeno):
+def expo_copies_task(p, c0, c1, pt, sch, x_start, spec, band, opts, cache, model, log_err, final,
+                     zeno):
     """Integrate point ``p``'s drive with its free copies ``c0 .. c1 - 1`` for
     ``sch.n_periods`` periods of ``sch.n_per`` steps (the output grid of ``expo``: the copies
     are measured at step ends), writing ``ln eps`` at the period boundaries into
@@ -330,17 +331,18 @@ def expo_copies_task(p, c0, c1, pt, sch, x_start, spec, band, opts, log_err, fin
     states ``(q, v, z, mode)`` into ``final`` as :func:`beamsim.kernels.copies.copies_task`
     does, and into ``zeno[p, r]`` (rows as ``final``'s) the number of output steps that the
     Zeno guard ended (row 0, the drive: only by the task with ``c0 = 0``).  ``opts``:
-    :data:`ExpoCopyOptions`."""
+    :data:`ExpoCopyOptions`; ``cache``, ``model``: the pattern cache every row uses and the
+    key of the point's model (:func:`beamsim.kernels.expo.use_model`)."""
     n = pt.Mm.shape[0]
     nq = pt.S.shape[0]
     rows = _new_rows(x_start, spec, c0, c1, n, nq)
     R = c1 - c0 + 1
-    caches = (expo.new_cache(n, nq, opts.cache_size), expo.new_cache(n, nq, opts.cache_size))
+    expo.use_model(cache, model)
     cnts = (np.zeros(expo.N_COUNTERS, np.int64), np.zeros(expo.N_COUNTERS, np.int64))
     wks = [expo.new_scratch(pt, opts.n_sub, cnts[0] if r == 0 else cnts[1]) for r in range(R)]
     log = _new_log(2 * n, nq, 10 * nq + 12)
     scratch = (np.empty(n), np.empty(n), np.empty(nq))
-    work = (log, caches, wks, scratch)
+    work = (log, cache, wks, scratch)
     tally = Tally(np.zeros(3), np.zeros(N_STATS))
     x = _row(rows, 0)
     for m in range(R - 1):
@@ -352,7 +354,13 @@ def expo_copies_task(p, c0, c1, pt, sch, x_start, spec, band, opts, log_err, fin
         # period boundary then continues the same arithmetic)
         t0 = (step % n_per) * h
         t1 = (step % n_per + 1) * h
-        rows.slots[0] = _drive_step(t0, t1, rows.slots[0], caches[0], wks[0], x, pt, tally, log)
+        s0 = rows.slots[0]
+        if s0 >= 0 and cache.keys[s0] != rows.keys[0]:
+            # a copy's decomposition took the drive's slot: look the same pattern up again
+            rows.slots[0] = expo._pattern_slot(cache, wks[0], x, pt)
+        rows.slots[0] = _drive_step(t0, t1, rows.slots[0], cache, wks[0], x, pt, tally, log)
+        if rows.slots[0] >= 0:
+            rows.keys[0] = cache.keys[rows.slots[0]]
         if common.diverged(x.q, x.v, sch.div_limit):
             for m in range(R - 1):
                 for k in range(log_err.shape[2]):
@@ -388,14 +396,17 @@ def expo_copies_task(p, c0, c1, pt, sch, x_start, spec, band, opts, log_err, fin
 
 
 @njit(cache=True, nogil=True)
-def run_task(tasks, stk, sch, x_start, spec, band, opts, log_err, final, zeno, k):
+def run_task(tasks, stk, sch, x_start, spec, band, opts, models, log_err, final, zeno, cache, k):
     """Task ``k`` ``(point, first copy, end copy)`` of ``tasks`` (an item of
-    :func:`beamsim.kernels.thread_pool.run_items`); bundles stacked over the points as in
-    :func:`beamsim.kernels.copies.run_task` (``opts.tau_a`` per point).  The point carries its
-    full damping matrix (the interface dashpot included), as ``expo``'s reference runs do."""
+    :func:`beamsim.kernels.thread_pool.run_items` with the calling thread's pattern ``cache``);
+    bundles stacked over the points as in :func:`beamsim.kernels.copies.run_task`
+    (``opts.tau_a`` per point), ``models[p]`` the key of point ``p``'s model.  The point
+    carries its full damping matrix (the interface dashpot included), as ``expo``'s reference
+    runs do."""
     p = tasks[k, 0]
     expo_copies_task(p, tasks[k, 1], tasks[k, 2], point_at(stk, p, False),
                      CopySchedule(sch.h[p], sch.n_per[p], sch.n_periods, sch.div_limit[p]),
                      x_start[p], CopySpec(spec.offsets[p], spec.d[p], spec.renorm_period[p],
                                           spec.inv_scale[p]), band,
-                     ExpoCopyOptions(opts.n_sub, opts.cache_size, opts.tau_a[p]), log_err, final, zeno)
+                     ExpoCopyOptions(opts.n_sub, opts.tau_a[p]), cache,
+                     models[p], log_err, final, zeno)
