@@ -242,24 +242,29 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
 
 def simulate_points(points: Sequence[dict], numerics: Numerics | dict, store_root: str,
                     threads: int = 1) -> pd.DataFrame:
-    """Stage 1: time integration; one row per point with its Poincare samples."""
+    """Stage 1: time integration; one row per point with its Poincare samples.
+
+    Each point runs all its runs (:func:`simulate_runs`: the adaptive transient, the
+    continuation check) on one thread, ``threads`` points at a time, so a thread never waits
+    for another point's continuation, and one point's tests (Python) overlap another's kernel
+    (which releases the GIL).  A point's record depends on its own runs only, so this is the
+    record of any batching, to the bit."""
+    from concurrent.futures import ThreadPoolExecutor
+
     from beamsim.pattern_store import PatternStore
 
     store = PointStore(store_root, "simulate")
     nm = as_numerics(numerics)
-    patterns = PatternStore()  # expo's decompositions, shared by the stage's batches
+    patterns = PatternStore()  # expo's decompositions, shared by the stage's points
+
+    def one(p: dict) -> dict:
+        return simulate_runs([p], nm, 1, patterns)[0]
 
     def compute(batch: list[dict]) -> list[dict]:
-        # a batch must share the state size and the integrator
-        groups: dict = {}
-        for i, p in enumerate(batch):
-            key = (p["params"].get("n_modes"), p["params"].get("n_quad"), integrator(nm.method, p["params"]))
-            groups.setdefault(key, []).append(i)
-        recs: list = [None] * len(batch)
-        for idx in groups.values():
-            for i, rec in zip(idx, simulate_runs([batch[i] for i in idx], nm, threads, patterns)):
-                recs[i] = rec
-        return recs
+        if threads <= 1:
+            return [one(p) for p in batch]
+        with ThreadPoolExecutor(max_workers=threads) as pool:
+            return list(pool.map(one, batch))
 
     recs = _cached_stage(points, store, compute, batch_size=max(2 * threads, 25), stage="simulate")
     return records_table(points, recs)
