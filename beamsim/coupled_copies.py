@@ -163,18 +163,11 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
     if method == "expo":
         tau_a = np.array([0.5 * step_factor / pp.omega_max if adoption == "window" else 0.0
                           for pp in prepared])
-        opts = expo_copies.ExpoCopyOptions(event_checks, tau_a)
-        zeno = np.zeros((P, M + 1), np.int64)
-        keys = model_keys(stk)
-        # the tasks of one model one after another, so that a thread's cache keeps its model
-        items = np.argsort(keys[all_tasks[:, 0]], kind="stable")
-        workers = max(1, min(threads, items.size))
-        store = pattern_store or PatternStore()
-        with store.caches(n, nq, pattern_cache, workers) as caches:
-            run_items(expo_copies.run_task, bundles + (opts, keys, log_err, final, zeno), items,
-                      threads, per_thread=caches)
+        opts = expo_copies.ExpoCopyOptions(event_checks, tau_a, model_keys(stk))
+        out = expo_copies.ExpoCopyOutputs(log_err, final, np.zeros((P, M + 1), np.int64))
+        _run_expo_tasks(bundles, opts, out, pattern_cache, pattern_store or PatternStore(), threads)
         if zeno_out is not None:
-            zeno_out[...] = zeno
+            zeno_out[...] = out.zeno
         return (log_err, final) if return_final else log_err
     if zeno_out is not None:
         zeno_out[...] = 0  # RK4 locates every switch within its steps: no guard
@@ -183,3 +176,14 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
     for kernel, sel in ((copies.run_task, ~rigid), (copies.run_task_rigid, rigid)):
         run_items(kernel, args, np.flatnonzero(sel), threads)
     return (log_err, final) if return_final else log_err
+
+
+def _run_expo_tasks(bundles: tuple, opts, out, slots: int, store: PatternStore, threads: int) -> None:
+    """The ``expo`` tasks of :func:`run_copies` on ``threads`` threads, each with a pattern cache
+    of ``slots`` decompositions lent by ``store``; the tasks of one model one after another, so
+    that a thread's cache keeps its model."""
+    tasks, stk = bundles[0], bundles[1]
+    items = np.argsort(opts.model[tasks[:, 0]], kind="stable")
+    workers = max(1, min(threads, items.size))
+    with store.caches(stk.Mm.shape[1], stk.S.shape[1], slots, workers) as caches:
+        run_items(expo_copies.run_task, bundles + (opts, out), items, threads, per_thread=caches)

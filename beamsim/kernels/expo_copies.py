@@ -47,9 +47,15 @@ from beamsim.kernels.bundles import LEAF, State, Tally, point_at
 from beamsim.kernels.copies import CopySchedule, CopySpec, adopt_modes, error, measure_copy
 from beamsim.results import N_STATS
 
-#: ``expo``'s checks per step and the adoption window ``tau_a`` (time units; ``<= 0``: adopt at
-#: output step ends)
-ExpoCopyOptions = namedtuple("ExpoCopyOptions", ("n_sub", "tau_a"))
+#: ``expo``'s checks per step, the adoption window ``tau_a`` (time units; ``<= 0``: adopt at
+#: output step ends) and the key of the point's model (:func:`beamsim.kernels.expo.use_model`);
+#: ``tau_a`` and ``model`` per point in :func:`run_task`'s stacked bundle
+ExpoCopyOptions = namedtuple("ExpoCopyOptions", ("n_sub", "tau_a", "model"))
+
+#: the outputs, indexed by the point: ``ln eps`` at the period boundaries ``(P, M, K + 1)``, end
+#: states ``(P, M + 1, 2 n + 2 nq)`` and Zeno-guard counts ``(P, M + 1)`` (rows: 0 the drive,
+#: ``1 + m`` copy ``m``)
+ExpoCopyOutputs = namedtuple("ExpoCopyOutputs", ("log_err", "final", "zeno"))
 
 #: the drive's intervals within one output step: start time, cache slot and its pattern key,
 #: modal state and forcing at the start, stick/slip modes and slips at the start; ``count[0]``
@@ -322,8 +328,7 @@ def _new_rows(x_start, spec, c0, c1, n, nq):
 
 
 @njit(cache=True)
-def expo_copies_task(p, c0, c1, pt, sch, x_start, spec, band, opts, cache, model, log_err, final,
-                     zeno):
+def expo_copies_task(p, c0, c1, pt, sch, x_start, spec, band, opts, cache, out):
     """Integrate point ``p``'s drive with its free copies ``c0 .. c1 - 1`` for
     ``sch.n_periods`` periods of ``sch.n_per`` steps (the output grid of ``expo``: the copies
     are measured at step ends), writing ``ln eps`` at the period boundaries into
@@ -331,13 +336,14 @@ def expo_copies_task(p, c0, c1, pt, sch, x_start, spec, band, opts, cache, model
     states ``(q, v, z, mode)`` into ``final`` as :func:`beamsim.kernels.copies.copies_task`
     does, and into ``zeno[p, r]`` (rows as ``final``'s) the number of output steps that the
     Zeno guard ended (row 0, the drive: only by the task with ``c0 = 0``).  ``opts``:
-    :data:`ExpoCopyOptions`; ``cache``, ``model``: the pattern cache every row uses and the
-    key of the point's model (:func:`beamsim.kernels.expo.use_model`)."""
+    :data:`ExpoCopyOptions`; ``cache``: the pattern cache every row uses; ``out``:
+    :data:`ExpoCopyOutputs`."""
+    log_err, final, zeno = out
     n = pt.Mm.shape[0]
     nq = pt.S.shape[0]
     rows = _new_rows(x_start, spec, c0, c1, n, nq)
     R = c1 - c0 + 1
-    expo.use_model(cache, model)
+    expo.use_model(cache, opts.model)
     cnts = (np.zeros(expo.N_COUNTERS, np.int64), np.zeros(expo.N_COUNTERS, np.int64))
     wks = [expo.new_scratch(pt, opts.n_sub, cnts[0] if r == 0 else cnts[1]) for r in range(R)]
     log = _new_log(2 * n, nq, 10 * nq + 12)
@@ -396,11 +402,11 @@ def expo_copies_task(p, c0, c1, pt, sch, x_start, spec, band, opts, cache, model
 
 
 @njit(cache=True, nogil=True)
-def run_task(tasks, stk, sch, x_start, spec, band, opts, models, log_err, final, zeno, cache, k):
+def run_task(tasks, stk, sch, x_start, spec, band, opts, out, cache, k):
     """Task ``k`` ``(point, first copy, end copy)`` of ``tasks`` (an item of
     :func:`beamsim.kernels.thread_pool.run_items` with the calling thread's pattern ``cache``);
     bundles stacked over the points as in :func:`beamsim.kernels.copies.run_task`
-    (``opts.tau_a`` per point), ``models[p]`` the key of point ``p``'s model.  The point
+    (``opts.tau_a``, ``opts.model`` per point), ``out``: :data:`ExpoCopyOutputs`.  The point
     carries its full damping matrix (the interface dashpot included), as ``expo``'s reference
     runs do."""
     p = tasks[k, 0]
@@ -408,5 +414,4 @@ def run_task(tasks, stk, sch, x_start, spec, band, opts, models, log_err, final,
                      CopySchedule(sch.h[p], sch.n_per[p], sch.n_periods, sch.div_limit[p]),
                      x_start[p], CopySpec(spec.offsets[p], spec.d[p], spec.renorm_period[p],
                                           spec.inv_scale[p]), band,
-                     ExpoCopyOptions(opts.n_sub, opts.tau_a[p]), cache,
-                     models[p], log_err, final, zeno)
+                     ExpoCopyOptions(opts.n_sub, opts.tau_a[p], opts.model[p]), cache, out)
