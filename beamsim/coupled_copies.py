@@ -51,7 +51,7 @@ import numpy as np
 from beamsim.friction import RIGID_STICK
 from beamsim.kernels import copies, expo_copies
 from beamsim.kernels.thread_pool import run_items
-from beamsim.pattern_store import PatternStore, model_keys
+from beamsim.pattern_store import PatternStore, cache_slots, model_keys
 from beamsim.point import check_method_law, period_steps, stack_points
 from beamsim.two_layer import check_int, check_positive
 
@@ -139,9 +139,7 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
         if adoption not in ("window", "grid"):
             raise ValueError(f"adoption must be 'window' or 'grid', got {adoption!r}")
         event_checks = check_int("event_checks", event_checks, 1)
-        # at most ~100 MB of decompositions per thread (as simulate_batch)
-        pattern_cache = max(2, min(check_int("pattern_cache", pattern_cache, 1),
-                                   int(1e8 // (2 * (2 * n) ** 2 * 16 + 1))))
+        pattern_cache = cache_slots(check_int("pattern_cache", pattern_cache, 1), n)
     stk = stack_points(prepared, div_limit)
     h = np.empty(P)
     n_per = np.empty(P, np.int64)
@@ -165,7 +163,9 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
                           for pp in prepared])
         opts = expo_copies.ExpoCopyOptions(event_checks, tau_a, model_keys(stk))
         out = expo_copies.ExpoCopyOutputs(log_err, final, np.zeros((P, M + 1), np.int64))
-        _run_expo_tasks(bundles, opts, out, pattern_cache, pattern_store or PatternStore(), threads)
+        (pattern_store or PatternStore()).run(expo_copies.run_task, bundles + (opts, out),
+                                              opts.model[all_tasks[:, 0]], stk, pattern_cache,
+                                              threads)
         if zeno_out is not None:
             zeno_out[...] = out.zeno
         return (log_err, final) if return_final else log_err
@@ -177,13 +177,3 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
         run_items(kernel, args, np.flatnonzero(sel), threads)
     return (log_err, final) if return_final else log_err
 
-
-def _run_expo_tasks(bundles: tuple, opts, out, slots: int, store: PatternStore, threads: int) -> None:
-    """The ``expo`` tasks of :func:`run_copies` on ``threads`` threads, each with a pattern cache
-    of ``slots`` decompositions lent by ``store``; the tasks of one model one after another, so
-    that a thread's cache keeps its model."""
-    tasks, stk = bundles[0], bundles[1]
-    items = np.argsort(opts.model[tasks[:, 0]], kind="stable")
-    workers = max(1, min(threads, items.size))
-    with store.caches(stk.Mm.shape[1], stk.S.shape[1], slots, workers) as caches:
-        run_items(expo_copies.run_task, bundles + (opts, out), items, threads, per_thread=caches)

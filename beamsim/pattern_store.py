@@ -26,12 +26,22 @@ import numpy as np
 
 from beamsim.kernels import expo
 from beamsim.kernels.bundles import PointStack
+from beamsim.kernels.thread_pool import run_items
 
-__all__ = ["PatternStore", "model_keys"]
+__all__ = ["PatternStore", "model_keys", "cache_slots"]
+
+#: bytes of decompositions a thread's cache may hold (its ``V`` and ``V^-1``)
+_CACHE_BYTES = 1e8
 
 #: the inputs of a point that ``beamsim.kernels.expo._pattern`` reads (the full damping matrix
 #: ``Cm``: expo books the interface dashpot in it)
 _MODEL_INPUTS = ("Mm", "Km", "Cm", "damp", "S", "wq", "kt", "g", "Minv", "Linv")
+
+
+def cache_slots(requested: int, n: int) -> int:
+    """Slots of a thread's cache for models of ``n`` coordinates: ``requested``, capped at about
+    100 MB of decompositions, at least 2."""
+    return max(2, min(int(requested), int(_CACHE_BYTES // (2 * (2 * n) ** 2 * 16 + 1))))
 
 
 def model_keys(stk: PointStack) -> np.ndarray:
@@ -76,3 +86,14 @@ class PatternStore:
         finally:
             with self._lock:
                 self._free.setdefault(shape, []).extend(lent)
+
+    def run(self, kernel, args: tuple, models: np.ndarray, stk: PointStack, slots: int,
+            threads: int) -> None:
+        """:func:`beamsim.kernels.thread_pool.run_items` over the items ``0 .. len(models) - 1``
+        (``models[i]``: item ``i``'s model key), each thread with a cache of ``slots`` lent by
+        this store, the items of one model one after another (so that a thread's cache keeps
+        its model)."""
+        items = np.argsort(models, kind="stable")
+        workers = max(1, min(threads, items.size))
+        with self.caches(stk.Mm.shape[1], stk.S.shape[1], slots, workers) as caches:
+            run_items(kernel, args, items, threads, per_thread=caches)

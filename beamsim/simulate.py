@@ -38,7 +38,7 @@ from beamsim.friction import RIGID_STICK
 from beamsim.kernels import expo, newmark, rk4
 from beamsim.kernels.bundles import Outputs, Schedule
 from beamsim.kernels.thread_pool import run_items
-from beamsim.pattern_store import PatternStore, model_keys
+from beamsim.pattern_store import PatternStore, cache_slots, model_keys
 from beamsim.point import (
     METHOD_LAWS,
     PreparedPoint,
@@ -80,13 +80,9 @@ def _run_rk4(stk, sched, opts, out, threads):
 
 def _run_expo(stk, sched, opts, out, threads):
     keys = model_keys(stk)
-    # the points of one model one after another, so that a thread's cache keeps its model
-    items = np.argsort(keys, kind="stable")
-    workers = max(1, min(threads, items.size))
     store = opts["pattern_store"] or PatternStore()
-    with store.caches(stk.Mm.shape[1], stk.S.shape[1], opts["pattern_cache"], workers) as caches:
-        run_items(expo.run_point, (stk, sched, opts["event_checks"], keys, out), items, threads,
-                  per_thread=caches)
+    store.run(expo.run_point, (stk, sched, opts["event_checks"], keys, out), keys, stk,
+              opts["pattern_cache"], threads)
 
 
 def _run_newmark(stk, sched, opts, out, threads):
@@ -225,8 +221,7 @@ def simulate_batch(points, *, n_transient: int = 50, n_record: int = 50,
                 pattern_store=pattern_store)
     _check_method(method, prepared)
     n, nq = prepared[0].model.n, prepared[0].model.n_quad
-    # expo pattern cache: at most ~100 MB per thread
-    opts["pattern_cache"] = max(2, min(opts["pattern_cache"], int(1e8 // (2 * (2 * n) ** 2 * 16 + 1))))
+    opts["pattern_cache"] = cache_slots(opts["pattern_cache"], n)
     stk = stack_points(prepared, div_limit)
     sched = _schedule(prepared, method, steps_per_period, step_factor, dpp, n_trans, n_rec,
                       stk.divl)

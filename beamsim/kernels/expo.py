@@ -611,13 +611,19 @@ def new_scratch(pt, n_sub, cnt):
 
 
 @njit(cache=True, inline="always")
-def _modes(cache, slot, wk):
-    """The :data:`Modes` of cache slot ``slot`` as trajectory ``wk`` uses them (with its
-    point's resonance guard, :func:`resonant`)."""
-    lam = wk.glam if slot == wk.gslot[0] else cache.lam[slot]
+def slot_modes(cache, slot, lam):
+    """The :data:`Modes` of cache slot ``slot`` with the eigenvalues ``lam`` (the slot's own, or
+    a point's guarded copy of them)."""
     return Modes(lam, cache.V[slot], cache.Vi[slot], cache.SVq[slot],
                  cache.SVv[slot], cache.cg[slot], cache.gam[slot], cache.nh[slot],
                  cache.nc[slot], cache.wt[slot])
+
+
+@njit(cache=True, inline="always")
+def _modes(cache, slot, wk):
+    """The :data:`Modes` of cache slot ``slot`` as trajectory ``wk`` uses them (with its
+    point's resonance guard, :func:`resonant`)."""
+    return slot_modes(cache, slot, wk.glam if slot == wk.gslot[0] else cache.lam[slot])
 
 
 @njit(cache=True)

@@ -138,9 +138,7 @@ def _drive_modes(k, cache, log, pt, wk):
         if expo.resonant(lam, pt.om):
             lam = np.empty_like(lam)
             expo.shift_resonant(cache.lam[slot], pt.om, lam)
-        md = expo.Modes(lam, cache.V[slot], cache.Vi[slot], cache.SVq[slot], cache.SVv[slot],
-                        cache.cg[slot], cache.gam[slot], cache.nh[slot], cache.nc[slot],
-                        cache.wt[slot])
+        md = expo.slot_modes(cache, slot, lam)
     else:
         for j in range(log.mode.shape[1]):
             wk.stuck[j] = log.mode[k, j] == 0 and not wk.free[j]
