@@ -30,7 +30,7 @@ from beamsim.kernels.thread_pool import run_items
 
 __all__ = ["PatternStore", "model_keys", "cache_slots"]
 
-#: bytes of decompositions a thread's cache may hold (its ``V`` and ``V^-1``)
+#: bytes of decompositions a thread's cache may hold (its ``V``, ``V^-1`` and check ladders)
 _CACHE_BYTES = 1e8
 
 #: the inputs of a point that ``beamsim.kernels.expo._pattern`` reads (the full damping matrix
@@ -41,7 +41,8 @@ _MODEL_INPUTS = ("Mm", "Km", "Cm", "damp", "S", "wq", "kt", "g", "Minv", "Linv")
 def cache_slots(requested: int, n: int) -> int:
     """Slots of a thread's cache for models of ``n`` coordinates: ``requested``, capped at about
     100 MB of decompositions, at least 2."""
-    return max(2, min(int(requested), int(_CACHE_BYTES // (2 * (2 * n) ** 2 * 16 + 1))))
+    slot_bytes = (2 * (2 * n) + expo.LADDER_RUNGS) * (2 * n) * 16
+    return max(2, min(int(requested), int(_CACHE_BYTES // slot_bytes)))
 
 
 def model_keys(stk: PointStack) -> np.ndarray:

@@ -25,13 +25,15 @@ import numpy as np
 from analysis.pipeline.config import Numerics, as_numerics
 
 #: bump when a code change alters results for unchanged parameters (invalidates all ids)
-RESULTS_VERSION = "11"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
+RESULTS_VERSION = "12"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
 #                        conjugate pairs with damping, kernels with reassociated sums; 8: the
 #                        continuation check (the record kept is the continued one); 9: the
 #                        Lyapunov stage's free copy on expo (numerics.lyapunov.method: auto);
 #                        10: auto keeps the RK4 free copy where mu_s = mu_k; 11: a point whose
 #                        expo run or expo pair meets expo's Zeno guard is run on RK4
-#                        (simulate record's method, lle_free_copy)
+#                        (simulate record's method, lle_free_copy); 12: expo's real
+#                        eigen-decomposition, check ladder and closed form in the interval's
+#                        coefficients (switch times move in the last bits)
 
 
 def _canonical(value):

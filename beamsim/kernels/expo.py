@@ -11,8 +11,12 @@ and the state obeys ``x' = A x + b + g_v F(t)``.  With the eigen-decomposition
 
 (``phi = (e^{l tau} - 1)/l``, ``psi = (e^{mu tau} - e^{l tau})/(mu - l)``).  The event
 functions are checked at adaptive points placed where no crossing can have happened before them (a bound
-of their second derivative from the closed form), the earliest crossing is refined by Illinois
-with a bisection safeguard, the switches are applied and a new pattern starts.  The work of
+of their second derivative from the closed form), spaced by the rungs of a ladder of
+lengths ``d_m = d_min 2^(m/3)`` so that the modal exponentials advance from check to check by
+one multiplication with factors ``e^{lam_k d_m}`` cached with the decomposition (the
+interval's closed form in the coefficients ``A_k e^{lam_k tau} + B_k + C_k e^{i w tau} +
+D_k e^{-i w tau}``); the earliest crossing is refined by Illinois
+with a bisection safeguard from the closed form above, the switches are applied and a new pattern starts.  The work of
 the load is integrated exactly; the friction dissipation follows from the slip of the sliding
 elements; with damping the damping dissipation is the remainder of the energy identity.
 Stick-slip law only.  Steps ``h`` only set the output grid and the largest spacing of the
@@ -29,84 +33,57 @@ from numba import njit
 
 from beamsim.kernels import common
 from beamsim.kernels.bundles import LEAF, point_at, schedule_at
+from beamsim.kernels.real_eig import real_eig
 from beamsim.results import FLAG_N_CHECKS, FLAG_N_EVENTS, FLAG_N_PATTERNS, FLAG_N_ZENO
 
 #: eigen-decompositions of ``C`` stick patterns: pattern bit keys, eigenvalues ``lam``, ``V``,
 #: ``V^-1``, the slips and slip rates of the modes ``SVq = S V_q``, ``SVv = S V_v``, the load
 #: power rows ``cg = g V_v``, the modal load ``gam = V^-1 [0; M^-1 g]``; the mode order
-#: (:func:`_pair_conjugates`): ``nc`` modes with ``Im lam > 0``, then the real ones, up to
+#: (:func:`beamsim.kernels.real_eig.real_eig`): ``nc`` modes with ``Im lam > 0``, then the real ones, up to
 #: ``nh``, then the conjugates of the first ``nc``; ``wt`` the weight of each of the first
-#: ``nh`` modes in a real sum (2: the mode and its conjugate, 1: a real mode); ``count``
+#: ``nh`` modes in a real sum (2: the mode and its conjugate, 1: a real mode); ``aSVq =
+#: wt |SVq|`` (the rate bounds' weights, :func:`_rate_bounds`); ``ladder`` the
+#: check-step factors ``e^{lam_k d_m}`` of the first ``nh`` modes at the rungs ``d_m``
+#: (:func:`_ladder`); ``count``
 #: ``(filled slots, decompositions stored)``, ``model`` the model key of the entries.  An entry
 #: depends on the model's matrices and the pattern only (the resonance guard, which depends on
 #: a point's forcing frequency, is applied per point: :func:`resonant`), so trajectories
 #: of every point of one model can share a cache, one trajectory at a time
 #: (:func:`use_model`).
 PatternCache = namedtuple("PatternCache", ("keys", "lam", "V", "Vi", "SVq", "SVv", "cg", "gam",
-                                           "nh", "nc", "wt", "count", "model"))
+                                           "nh", "nc", "wt", "aSVq", "ladder", "count",
+                                           "model"))
 
-#: one pattern's entries of the cache
-Modes = namedtuple("Modes", ("lam", "V", "Vi", "SVq", "SVv", "cg", "gam", "nh", "nc", "wt"))
+#: one pattern's entries of the cache (a ``ladder`` with no rungs: every check evaluates the
+#: closed form's exponentials, as a point whose resonance guard shifted ``lam`` must)
+Modes = namedtuple("Modes", ("lam", "V", "Vi", "SVq", "SVv", "cg", "gam", "nh", "nc", "wt",
+                             "aSVq", "ladder"))
 
 #: per-point scratch: permanently free elements, stuck set, real state ``xr``, modal states
 #: ``zeta0`` (interval start), ``zeta`` (current), ``ztmp``, modal forcing ``beta``, the
-#: interface load ``rv``, rate bounds ``r1, r2`` and ``rate``, modal rate ``zdot``, slips
+#: interface load ``rv``, rate bounds ``r1, r2`` (``r1`` also :func:`_project`'s scratch) and ``rate``, modal rate ``zdot``, slips
 #: ``sbuf``, slip rates ``sdbuf``, event functions ``fcur, fprev``, counters ``cnt`` (filled
 #: decompositions computed, events, checks, Zeno-guard steps); ``n_sub`` checks per step at
 #: least; ``glam`` the eigenvalues of the slot ``gslot[0]`` with the point's resonance guard
-#: applied (``gslot[0] = -1``: the current slot needs none, :func:`_pattern_slot`)
+#: applied (``gslot[0] = -1``: the current slot needs none, :func:`_pattern_slot`); the
+#: interval's closed-form coefficients ``ca, cb, cc, cd`` (``A_k, B_k, C_k, D_k``,
+#: :func:`_rate_bounds`) and the exponentials ``el = e^{lam_k tau}`` at the last check
 ExpoWork = namedtuple("ExpoWork", ("free", "stuck", "xr", "zeta0", "zeta", "ztmp", "beta", "rv",
                                    "r1", "r2", "zdot", "sbuf", "sdbuf", "fcur", "fprev", "rate",
-                                   "cnt", "n_sub", "glam", "gslot"))
+                                   "cnt", "n_sub", "glam", "gslot", "ca", "cb", "cc", "cd", "el"))
 
 _N_EIG, _N_EVENTS, _N_CHECKS, _N_ZENO = 0, 1, 2, 3
 #: length of the counters ``cnt``
 N_COUNTERS = 4
 #: ``PatternCache.count``: filled slots, decompositions stored
 _FILLED, _STORED = 0, 1
-
-
-@njit(cache=True)
-def _pair_conjugates(lam, V):
-    """Order the modes of a real first-order matrix as ``nc`` modes with ``Im lam > 0``, the
-    real modes, then the ``nc`` conjugates (set to the exact conjugates of the first ``nc``, as
-    they are in exact arithmetic), so that real sums need only the first ``nh = n2 - nc``
-    terms, each of the first ``nc`` twice.  Returns ``(lam, V, nh, nc)``; if the eigenvalues do
-    not pair up (``nc`` above, ``nc`` below the real axis) the order is kept with ``nc = 0``."""
-    n2 = lam.shape[0]
-    tol = 0.0
-    for k in range(n2):
-        tol = max(tol, abs(lam[k]))
-    tol = 1e-10 * (tol + 1.0)
-    pos = np.empty(n2, np.int64)
-    rl = np.empty(n2, np.int64)
-    npos = nneg = nrl = 0
-    for k in range(n2):
-        if lam[k].imag > tol:
-            pos[npos] = k
-            npos += 1
-        elif lam[k].imag < -tol:
-            nneg += 1
-        else:
-            rl[nrl] = k
-            nrl += 1
-    if npos != nneg:
-        return lam, V, n2, 0
-    lam2 = np.empty(n2, np.complex128)
-    V2 = np.empty_like(V)
-    for i in range(npos):
-        k = pos[i]
-        lam2[i] = lam[k]
-        lam2[npos + nrl + i] = np.conj(lam[k])
-        for a in range(n2):
-            V2[a, i] = V[a, k]
-            V2[a, npos + nrl + i] = np.conj(V[a, k])
-    for i in range(nrl):
-        k = rl[i]
-        lam2[npos + i] = lam[k].real
-        for a in range(n2):
-            V2[a, npos + i] = V[a, k]
-    return lam2, V2, npos + nrl, npos
+#: rungs of the check-spacing ladder: spacings ``d_min 2^(m/3)``, ``m < LADDER_RUNGS`` (a
+#: spacing the bound allows beyond the top rung takes the top rung)
+LADDER_RUNGS = 30
+#: the closed form in the interval's coefficients (:func:`_closed_form`) is used where
+#: ``sep * span`` is at least this (its relative error ``eps / (sep tau)``; below, the
+#: divided differences of :func:`_zeta_at`)
+_SEP_MIN = 1e-3
 
 
 @njit(cache=True)
@@ -114,8 +91,8 @@ def _pattern(stuck, pt):
     """Eigen-decomposition ``A = V diag(lam) V^-1`` of the first-order matrix of the linear system
     with the stuck set ``stuck`` (springs k_t at the stuck points).  Undamped: from the real
     symmetric problem ``K_P phi = omega^2 M phi`` (lam = +-i omega, V and V^-1 in closed
-    form); damped: complex eigen-decomposition, conjugate pairs ordered by
-    :func:`_pair_conjugates`.  Depends on the model's matrices only (not on the forcing:
+    form); damped: LAPACK's real eigen-decomposition, conjugate pairs ordered by
+    :func:`beamsim.kernels.real_eig.real_eig`.  Depends on the model's matrices only (not on the forcing:
     the resonance guard is :func:`resonant`).  Returns the :data:`Modes` entries."""
     Mm, Km, S, wq, kt, g = pt.Mm, pt.Km, pt.S, pt.wq, pt.kt, pt.g
     n = Km.shape[0]
@@ -151,7 +128,7 @@ def _pattern(stuck, pt):
                 Vi[k, n + a] = -0.5j / wk * Psi[k, a]
                 Vi[n + k, n + a] = 0.5j / wk * Psi[k, a]
     else:
-        A = np.zeros((n2, n2), np.complex128)
+        A = np.zeros((n2, n2))
         MK = pt.Minv @ KP
         MC = pt.Minv @ pt.Cm
         for a in range(n):
@@ -159,8 +136,7 @@ def _pattern(stuck, pt):
             for b in range(n):
                 A[n + a, b] = -MK[a, b]
                 A[n + a, n + b] = -MC[a, b]
-        lam, V = np.linalg.eig(A)
-        lam, V, nh, nc = _pair_conjugates(lam, V)
+        lam, V, nh, nc = real_eig(A)
         Vi = np.linalg.inv(V)
     if not pt.damp:
         nh = nc = n
@@ -175,6 +151,45 @@ def _pattern(stuck, pt):
     Mg = (pt.Minv @ g).astype(np.complex128)
     gam = np.ascontiguousarray(Vi[:, n:]) @ Mg
     return lam, V, Vi, SVq, SVv, cg, gam, nh, nc, wt
+
+
+@njit(cache=True, inline="always")
+def _lmax(lam, nh):
+    """Largest ``|lam_k|`` of the first ``nh`` modes (it sets the shortest check spacing
+    ``d_min = 0.1 / lmax``)."""
+    lmax = 0.0
+    for k in range(nh):
+        al = abs(lam[k])
+        if al > lmax:
+            lmax = al
+    return lmax
+
+
+@njit(cache=True, inline="always")
+def _rung(d_min, m):
+    """Spacing of rung ``m`` of the check ladder: ``d_min 2^(m/3)``."""
+    return d_min * 2.0 ** (m / 3.0)
+
+
+@njit(cache=True)
+def _ladder(lam, nh, out):
+    """Check-step factors ``out[m, k] = e^{lam_k d_m}`` of the first ``nh`` modes at the rungs
+    ``d_m`` (:func:`_rung`, ``d_min = 0.1 / max |lam_k|``)."""
+    d_min = 0.1 / _lmax(lam, nh)
+    for m in range(out.shape[0]):
+        d = _rung(d_min, m)
+        for k in range(nh):
+            out[m, k] = np.exp(lam[k] * d)
+
+
+@njit(cache=True)
+def weighted_abs(SVq, wt):
+    """``wt_k |SVq_jk|``: the weights of the rate bounds (:func:`_rate_bounds`)."""
+    out = np.empty(SVq.shape)
+    for j in range(SVq.shape[0]):
+        for k in range(SVq.shape[1]):
+            out[j, k] = wt[k] * abs(SVq[j, k])
+    return out
 
 
 @njit(cache=True, inline="always")
@@ -219,9 +234,10 @@ def _zeta_at(tau, md, wk, t0, pt, out):
 
 @njit(**LEAF)
 def _work(tau1, md, wk, t0, pt):
-    """Exact ``int_0^tau1 F(t0 + tau) g.v(tau) dtau`` for the interval solution."""
+    """Exact ``int_0^tau1 F(t0 + tau) g.v(tau) dtau`` for the interval solution (``F`` is
+    real, so the real sum over the first ``nh`` modes, each of the first ``nc`` twice)."""
     f0, om = pt.f0, pt.om
-    lam, gam, cg, z0, beta = md.lam, md.gam, md.cg, wk.zeta0, wk.beta
+    lam, gam, cg, z0, beta, wt = md.lam, md.gam, md.cg, wk.zeta0, wk.beta, md.wt
     ep = np.exp(1j * om * t0)
     em = np.conj(ep)
     io = 1j * om
@@ -234,15 +250,16 @@ def _work(tau1, md, wk, t0, pt):
     SB = 0.0j
     SC = 0.0j
     SD = 0.0j
-    for k in range(lam.shape[0]):
+    for k in range(md.nh):
         lk = lam[k]
         fg = f0 * gam[k]
+        wcg = wt[k] * cg[k]
         Ak = z0[k] + beta[k] / lk - fg / lk - fg * 0.5 * ep / (io - lk) - fg * 0.5 * em / (-io - lk)
-        SB += cg[k] * (-beta[k] / lk + fg / lk)
-        SC += cg[k] * fg * 0.5 * ep / (io - lk)
-        SD += cg[k] * fg * 0.5 * em / (-io - lk)
+        SB += wcg * (-beta[k] / lk + fg / lk)
+        SC += wcg * fg * 0.5 * ep / (io - lk)
+        SD += wcg * fg * 0.5 * em / (-io - lk)
         el = np.exp(lk * tau1)
-        total += cg[k] * Ak * (ap * _phi_e(lk + io, tau1, el * eip)
+        total += wcg * Ak * (ap * _phi_e(lk + io, tau1, el * eip)
                                + am * _phi_e(lk - io, tau1, el * eim) + a0 * _phi_e(lk, tau1, el))
     pp_ = _phi_e(io, tau1, eip)
     pm_ = _phi_e(-io, tau1, eim)
@@ -330,6 +347,8 @@ def _fill_slot(key, cache, wk, pt):
     cache.nh[slot] = nh_
     cache.nc[slot] = nc_
     cache.wt[slot] = wt_
+    cache.aSVq[slot] = weighted_abs(SVq_, wt_)
+    _ladder(lam_, nh_, cache.ladder[slot])
     return slot
 
 
@@ -359,7 +378,8 @@ def shift_resonant(lam, om, out):
 @njit(cache=True)
 def _project(md, wk, x, pt):
     """Modal coordinates ``wk.zeta0`` of the current state and the constant modal forcing
-    ``wk.beta`` of the stuck springs' anchors and the sliding elements' kinetic tractions."""
+    ``wk.beta`` of the stuck springs' anchors and the sliding elements' kinetic tractions (the
+    first ``nh`` modes; the last ``nc`` are the conjugates of the first)."""
     q, v, z, mode = x.q, x.v, x.z, x.mode
     n = q.shape[0]
     n2 = 2 * n
@@ -378,9 +398,14 @@ def _project(md, wk, x, pt):
             c = -pt.wq[j] * mode[j] * pt.tau_k[j]
         for i in range(n):
             rv[i] += c * pt.S[j, i]
-    bv = pt.Minv @ rv
+    bv = wk.r1
+    for i in range(n):
+        acc = 0.0
+        for a in range(n):
+            acc += pt.Minv[i, a] * rv[a]
+        bv[i] = acc
     Vi = md.Vi
-    for k in range(n2):
+    for k in range(md.nh):
         acc = 0.0j
         acc2 = 0.0j
         for i in range(n2):
@@ -389,41 +414,51 @@ def _project(md, wk, x, pt):
             acc2 += Vi[k, n + i] * bv[i]
         wk.zeta0[k] = acc
         wk.beta[k] = acc2
+    for k in range(md.nc):
+        wk.zeta0[md.nh + k] = np.conj(wk.zeta0[k])
+        wk.beta[md.nh + k] = np.conj(wk.beta[k])
 
 
 @njit(**LEAF, inline="always")
 def _rate_bounds(t0, md, wk, x, pt):
     """Bounds of the second derivative of every event function on the interval from ``t0``
     (stuck: ``k_t |s_j''|``, slipping: ``|s_j'''|``) into ``wk.rate``, from the closed form
-    ``zeta_k(tau) = A_k e^{lam_k tau} + B_k + C_k e^{i w tau} + D_k e^{-i w tau}``; returns the
-    largest ``|lam_k|``."""
+    ``zeta_k(tau) = A_k e^{lam_k tau} + B_k + C_k e^{i w tau} + D_k e^{-i w tau}`` (its
+    coefficients into ``wk.ca, cb, cc, cd``); returns the largest ``|lam_k|`` and the
+    separation ``min_k min(|lam_k|, |lam_k - i w|, |lam_k + i w|)`` (where it is small against
+    ``1 / tau`` the coefficients cancel: :func:`_closed_form`)."""
     f0, om = pt.f0, pt.om
     lam, gam, r1, r2 = md.lam, md.gam, wk.r1, wk.r2
     ep = np.exp(1j * om * t0)
     io = 1j * om
-    lmax = 0.0
+    sep = math.inf
     for k in range(md.nh):
         lk = lam[k]
+        sep = min(sep, abs(lk), abs(io - lk), abs(io + lk))
         fg = f0 * gam[k]
+        Bk = (fg - wk.beta[k]) / lk
         Ck = fg * 0.5 * ep / (io - lk)
         Dk = fg * 0.5 * np.conj(ep) / (-io - lk)
-        Ak = wk.zeta0[k] + wk.beta[k] / lk - fg / lk - Ck - Dk
+        Ak = wk.zeta0[k] - Bk - Ck - Dk
+        wk.ca[k] = Ak
+        wk.cb[k] = Bk
+        wk.cc[k] = Ck
+        wk.cd[k] = Dk
         al = abs(lk)
-        if al > lmax:
-            lmax = al
         r1[k] = al * al * abs(Ak) + om * om * (abs(Ck) + abs(Dk))
         r2[k] = al * al * al * abs(Ak) + om * om * om * (abs(Ck) + abs(Dk))
+    aS = md.aSVq
     for j in range(x.z.shape[0]):
         acc = 0.0
         if x.mode[j] == 0:
             for k in range(md.nh):
-                acc += md.wt[k] * abs(md.SVq[j, k]) * r1[k]
+                acc += aS[j, k] * r1[k]
             wk.rate[j] = pt.kt * acc
         else:
             for k in range(md.nh):
-                acc += md.wt[k] * abs(md.SVq[j, k]) * r2[k]
+                acc += aS[j, k] * r2[k]
             wk.rate[j] = acc
-    return lmax
+    return _lmax(lam, md.nh), sep
 
 
 @njit(**LEAF, inline="always")
@@ -461,11 +496,36 @@ def _next_check(lo, t0, d_max, d_min, md, wk, x, pt):
     return dlt
 
 
+@njit(**LEAF)
+def _closed_form(tau, md, wk, pt, out):
+    """Modal state at ``tau`` from the interval's coefficients (:func:`_rate_bounds`): ``A_k
+    e^{lam_k tau} + B_k + C_k e^{i w tau} + D_k e^{-i w tau}``, the first ``md.nh`` modes.
+    Cheaper than :func:`_zeta_at` (no divisions), but its terms are up to ``1 / sep`` times
+    the state (``sep`` from :func:`_rate_bounds`), so an interval uses it only where ``sep *
+    span`` is at least :data:`_SEP_MIN` (:func:`_state_at`)."""
+    eiw = np.exp(1j * pt.om * tau)
+    eiwc = np.conj(eiw)
+    for k in range(md.nh):
+        out[k] = wk.ca[k] * np.exp(md.lam[k] * tau) + wk.cb[k] + wk.cc[k] * eiw + wk.cd[k] * eiwc
+
+
+@njit(**LEAF)
+def _state_at(tau, closed, md, wk, t0, pt, out):
+    """Modal state at ``t0 + tau`` of the interval: :func:`_closed_form` if ``closed``, else
+    :func:`_zeta_at`.  An interval uses one of them throughout (its refinement, its switch
+    decisions and its end state), so that the sign an element's event function had at the
+    end of its refinement is the sign the switch sees."""
+    if closed:
+        _closed_form(tau, md, wk, pt, out)
+    else:
+        _zeta_at(tau, md, wk, t0, pt, out)
+
+
 @njit(**LEAF, inline="always")
-def _refine(j, lo, tau, span, t0, md, wk, x, pt):
+def _refine(j, lo, tau, span, t0, md, wk, x, pt, closed):
     """Crossing of element ``j``'s event function in ``[lo, tau]`` (Illinois, i.e. modified
-    regula falsi, with every fourth and every step after the 40th a bisection); returns the
-    right end of the final bracket."""
+    regula falsi, with every fourth and every step after the 40th a bisection; the modal state
+    from :func:`_state_at`); returns the right end of the final bracket."""
     a = lo
     b = tau
     fa = min(wk.fprev[j], 0.0)
@@ -480,7 +540,7 @@ def _refine(j, lo, tau, span, t0, md, wk, x, pt):
             mid = b - fb * (b - a) / (fb - fa)
             if not (a < mid < b):
                 mid = 0.5 * (a + b)
-        _zeta_at(mid, md, wk, t0, pt, wk.ztmp)
+        _state_at(mid, closed, md, wk, t0, pt, wk.ztmp)
         fm = _cond(j, wk.ztmp, md, x, pt, wk)
         # bracket update shared with RK4's event refinement (its next point is not used: the
         # rule above adds the bisection safeguard)
@@ -488,23 +548,52 @@ def _refine(j, lo, tau, span, t0, md, wk, x, pt):
     return b
 
 
+@njit(**LEAF, inline="always")
+def _ladder_check(m, tau, md, wk, pt):
+    """Modal state into ``wk.zeta`` at the check ``tau``, one rung ``m`` after the last check:
+    ``e^{lam_k tau}`` advanced by the rung's factor (``wk.el``), then the closed form in the
+    interval's coefficients (:func:`_rate_bounds`)."""
+    eiw = np.exp(1j * pt.om * tau)
+    eiwc = np.conj(eiw)
+    lad = md.ladder
+    for k in range(md.nh):
+        e = wk.el[k] * lad[m, k]
+        wk.el[k] = e
+        wk.zeta[k] = wk.ca[k] * e + wk.cb[k] + wk.cc[k] * eiw + wk.cd[k] * eiwc
+
+
 @njit(**LEAF)
 def _find_event(t0, span, md, wk, x, pt):
-    """Earliest switch in ``(t0, t0 + span]`` (interval offset), or -1.0 if none: adaptive
-    checks (:func:`_next_check`, at most ``span / n_sub`` and at least ``0.1 / max|lam|``
-    apart), then :func:`_refine` on every violated element."""
-    lmax = _rate_bounds(t0, md, wk, x, pt)
+    """Earliest switch in ``(t0, t0 + span]`` (interval offset, or -1.0 if none) and whether
+    the interval uses the closed form in its coefficients (:func:`_state_at`): adaptive
+    checks (:func:`_next_check`, at most ``span / n_sub`` and at least ``d_min = 0.1 /
+    max|lam|`` apart; with a ladder and coefficients that do not cancel (:func:`_closed_form`),
+    the longest rung within that spacing, :func:`_ladder_check`; the check at the interval's
+    end from :func:`_state_at`), then :func:`_refine` on every violated element."""
+    lmax, sep = _rate_bounds(t0, md, wk, x, pt)
     d_min = 0.1 / lmax
     d_max = span / wk.n_sub
+    closed = sep * span >= _SEP_MIN
+    rungs = md.ladder.shape[0] if closed else 0
     lo = 0.0
     for k in range(wk.zeta.shape[0]):
         wk.zeta[k] = wk.zeta0[k]
+        wk.el[k] = 1.0
     _conds(wk.zeta, md, x, pt, wk)
     for _ in range(100000):
-        tau = lo + _next_check(lo, t0, d_max, d_min, md, wk, x, pt)
+        d = _next_check(lo, t0, d_max, d_min, md, wk, x, pt)
+        m = 0
+        if rungs > 0:
+            m = min(int(3.0 * math.log2(d / d_min)), rungs - 1)
+            d = _rung(d_min, m)
+        tau = lo + d
         if tau >= span * (1.0 - 1e-14):
             tau = span
-        _zeta_at(tau, md, wk, t0, pt, wk.zeta)
+            _state_at(tau, closed, md, wk, t0, pt, wk.zeta)
+        elif rungs > 0:
+            _ladder_check(m, tau, md, wk, pt)
+        else:
+            _zeta_at(tau, md, wk, t0, pt, wk.zeta)
         wk.cnt[_N_CHECKS] += 1
         for j in range(x.z.shape[0]):
             wk.fprev[j] = wk.fcur[j]
@@ -513,14 +602,14 @@ def _find_event(t0, span, md, wk, x, pt):
             for j in range(x.z.shape[0]):
                 if wk.free[j] or wk.fcur[j] <= 0.0:
                     continue
-                b = _refine(j, lo, tau, span, t0, md, wk, x, pt)
+                b = _refine(j, lo, tau, span, t0, md, wk, x, pt, closed)
                 if b < best:
                     best = b
-            return best
+            return best, closed
         lo = tau
         if tau >= span:
             break
-    return -1.0
+    return -1.0, closed
 
 
 @njit(**LEAF)
@@ -532,16 +621,16 @@ def _advance(tau1, t0, md, wk, x, pt, ecum):
     n2 = 2 * n
     zeta, xr = wk.zeta, wk.xr
     ecum[0] += _work(tau1, md, wk, t0, pt)
-    Vs = md.V
+    Vs, wt = md.V, md.wt
     for i in range(n2):
         acc = 0.0
-        for k in range(n2):
-            acc += (Vs[i, k] * zeta[k]).real
+        for k in range(md.nh):
+            acc += wt[k] * (Vs[i, k] * zeta[k]).real
         xr[i] = acc
     for j in range(z.shape[0]):
         s_new = 0.0
-        for k in range(n2):
-            s_new += (md.SVq[j, k] * zeta[k]).real
+        for k in range(md.nh):
+            s_new += wt[k] * (md.SVq[j, k] * zeta[k]).real
         if wk.free[j]:
             z[j] = s_new
         elif mode[j] != 0:
@@ -562,8 +651,8 @@ def _apply_events(t_ev, md, wk, x, pt, tally):
         if _cond(j, wk.zeta, md, x, pt, wk) > 0.0:
             s = 0.0
             if x.mode[j] == 0:
-                for k in range(wk.zeta.shape[0]):
-                    s += (md.SVq[j, k] * wk.zeta[k]).real
+                for k in range(md.nh):
+                    s += md.wt[k] * (md.SVq[j, k] * wk.zeta[k]).real
             common.apply_switch(j, t_ev, s, x, pt, tally)
 
 
@@ -579,7 +668,9 @@ def new_cache(n, nq, cache_size):
                         np.empty((C, nq, n2), np.complex128), np.empty((C, nq, n2), np.complex128),
                         np.empty((C, n2), np.complex128), np.empty((C, n2), np.complex128),
                         np.zeros(C, np.int64), np.zeros(C, np.int64), np.zeros((C, n2)),
-                        np.zeros(2, np.int64), np.zeros(1, np.int64))
+                        np.empty((C, nq, n2)), np.empty((C, LADDER_RUNGS, n2), np.complex128),
+                        np.zeros(2, np.int64),
+                        np.zeros(1, np.int64))
 
 
 @njit(**LEAF)
@@ -607,23 +698,29 @@ def new_scratch(pt, n_sub, cnt):
                     np.empty(n2, np.complex128), np.empty(n), np.empty(n2), np.empty(n2),
                     np.empty(n2, np.complex128), np.empty(nq), np.empty(nq), np.empty(nq),
                     np.empty(nq), np.empty(nq), cnt, n_sub, np.empty(n2, np.complex128),
-                    np.full(1, -1, np.int64))
+                    np.full(1, -1, np.int64), np.empty(n2, np.complex128),
+                    np.empty(n2, np.complex128), np.empty(n2, np.complex128),
+                    np.empty(n2, np.complex128), np.empty(n2, np.complex128))
 
 
 @njit(cache=True, inline="always")
-def slot_modes(cache, slot, lam):
-    """The :data:`Modes` of cache slot ``slot`` with the eigenvalues ``lam`` (the slot's own, or
-    a point's guarded copy of them)."""
+def slot_modes(cache, slot, lam, guarded):
+    """The :data:`Modes` of cache slot ``slot`` with the eigenvalues ``lam``: the slot's own,
+    or a point's guarded copy of them (``guarded``: its ladder, which the slot's own
+    eigenvalues made, is left out)."""
+    rungs = 0 if guarded else LADDER_RUNGS
     return Modes(lam, cache.V[slot], cache.Vi[slot], cache.SVq[slot],
                  cache.SVv[slot], cache.cg[slot], cache.gam[slot], cache.nh[slot],
-                 cache.nc[slot], cache.wt[slot])
+                 cache.nc[slot], cache.wt[slot], cache.aSVq[slot], cache.ladder[slot, :rungs])
 
 
 @njit(cache=True, inline="always")
 def _modes(cache, slot, wk):
     """The :data:`Modes` of cache slot ``slot`` as trajectory ``wk`` uses them (with its
     point's resonance guard, :func:`resonant`)."""
-    return slot_modes(cache, slot, wk.glam if slot == wk.gslot[0] else cache.lam[slot])
+    if slot == wk.gslot[0]:
+        return slot_modes(cache, slot, wk.glam, True)
+    return slot_modes(cache, slot, cache.lam[slot], False)
 
 
 @njit(cache=True)
@@ -652,10 +749,10 @@ def _interval(t0, t_end, slot, cache, wk, x, pt, tally):
     md = _modes(cache, slot, wk)
     n2 = wk.zeta.shape[0]
     span = t_end - t0
-    ev_tau = _find_event(t0, span, md, wk, x, pt)
+    ev_tau, closed = _find_event(t0, span, md, wk, x, pt)
     tau1 = span if ev_tau < 0 else ev_tau
     if ev_tau >= 0:
-        _zeta_at(tau1, md, wk, t0, pt, wk.zeta)
+        _state_at(tau1, closed, md, wk, t0, pt, wk.zeta)
     for k in range(md.nc):
         wk.zeta[md.nh + k] = np.conj(wk.zeta[k])
     _advance(tau1, t0, md, wk, x, pt, tally.ecum)

@@ -135,10 +135,11 @@ def _drive_modes(k, cache, log, pt, wk):
     slot = log.slot[k]
     if cache.keys[slot] == log.key[k]:
         lam = cache.lam[slot]
-        if expo.resonant(lam, pt.om):
+        guarded = expo.resonant(lam, pt.om)
+        if guarded:
             lam = np.empty_like(lam)
             expo.shift_resonant(cache.lam[slot], pt.om, lam)
-        md = expo.slot_modes(cache, slot, lam)
+        md = expo.slot_modes(cache, slot, lam, guarded)
     else:
         for j in range(log.mode.shape[1]):
             wk.stuck[j] = log.mode[k, j] == 0 and not wk.free[j]
@@ -146,10 +147,11 @@ def _drive_modes(k, cache, log, pt, wk):
         c = np.ascontiguousarray
         lam = c(lam)
         expo.shift_resonant(lam, pt.om, lam)
-        md = expo.Modes(lam, c(V), c(Vi), c(SVq), c(SVv), c(cg), c(gam), nh, nc, c(wt))
+        md = expo.Modes(lam, c(V), c(Vi), c(SVq), c(SVv), c(cg), c(gam), nh, nc, c(wt),
+                        expo.weighted_abs(SVq, wt), np.empty((0, lam.shape[0]), np.complex128))
     w = expo.ExpoWork(wk.free, wk.stuck, wk.xr, log.zeta0[k], wk.zeta, wk.ztmp, log.beta[k], wk.rv,
                       wk.r1, wk.r2, wk.zdot, wk.sbuf, wk.sdbuf, wk.fcur, wk.fprev, wk.rate, wk.cnt,
-                      wk.n_sub, wk.glam, wk.gslot)
+                      wk.n_sub, wk.glam, wk.gslot, wk.ca, wk.cb, wk.cc, wk.cd, wk.el)
     return md, w
 
 

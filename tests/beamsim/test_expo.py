@@ -1,6 +1,7 @@
-"""expo: the conjugate-pair ordering (the damped system's modes are evaluated half as often) and
-the pattern cache (its size, and its sharing across points and runs, change the cost, not the
-result)."""
+"""expo: the real eigen-decomposition and its conjugate-pair ordering (the damped system's modes
+are evaluated half as often), the check ladder and the closed form in the interval's
+coefficients (against the divided-difference form), and the pattern cache (its size, and its
+sharing across points and runs, change the cost, not the result)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import pytest
 
 from beamsim.kernels import expo
 from beamsim.kernels.bundles import State, point_at
-from beamsim.kernels.expo import _pair_conjugates
+from beamsim.kernels.real_eig import real_eig
 from beamsim.pattern_store import PatternStore, model_keys
 from beamsim.point import stack_points
 from beamsim.simulate import prepare_point, simulate, simulate_batch
@@ -35,10 +36,16 @@ def _oscillators(*pairs):
 ])
 def test_pairs_reproduce_the_real_system(pairs, nc_expected):
     A = _oscillators(*pairs)
-    lam, V = np.linalg.eig(A.astype(np.complex128))
-    lam2, V2, nh, nc = _pair_conjugates(lam, V)
+    lam2, V2, nh, nc = real_eig(A)
     n2 = A.shape[0]
     assert nc == nc_expected and nh == n2 - nc
+    # the spectrum numpy's complex eigensolver finds (an independent LAPACK driver), and the
+    # oscillators' own roots -c/2 +- sqrt(c^2/4 - k)
+    ref = np.linalg.eigvals(A.astype(np.complex128))
+    roots = np.concatenate([np.roots([1.0, c, k]) for k, c in pairs])
+    for other in (ref, roots):
+        d = np.abs(lam2[:, None] - other[None, :]).min(axis=1)
+        assert d.max() < 1e-9 * np.abs(other).max()
     # a decomposition of the same matrix
     Vi = np.linalg.inv(V2)
     assert np.abs(V2 @ np.diag(lam2) @ Vi - A).max() < 1e-10 * np.abs(A).max()
@@ -54,12 +61,63 @@ def test_pairs_reproduce_the_real_system(pairs, nc_expected):
     assert np.abs(back - x).max() < 1e-10 * np.abs(x).max()
 
 
-def test_unpaired_spectrum_keeps_its_order():
-    """A complex matrix whose eigenvalues do not come in conjugate pairs: nothing is halved."""
-    lam = np.array([1j, 2j, -0.5 + 0j])
-    V = np.eye(3, dtype=np.complex128)
-    lam2, V2, nh, nc = _pair_conjugates(lam, V)
-    assert (nh, nc) == (3, 0) and np.array_equal(lam2, lam) and np.array_equal(V2, V)
+def _interval_start(viscosity=0.0939):
+    """A three-mode point (the pipeline's interface dashpot by default) in a mixed stick
+    pattern, projected onto its modes at ``t0 = 0.1``: ``(md, wk, x, pt, t0)``."""
+    pp = prepare_point(n_modes=3, mu_s=0.45, mu_k=0.3, Omega=1.52, f0_rel=2.61,
+                       interface_viscosity=viscosity)
+    pt = point_at(stack_points([pp]), 0, False)
+    n, nq = pp.model.n, pp.model.n_quad
+    rng = np.random.default_rng(3)
+    x = State(1e-3 * rng.standard_normal(n), 1e-3 * rng.standard_normal(n),
+              1e-4 * rng.standard_normal(nq), np.array([0, 1, 0, -1] * (nq // 4), np.int64))
+    cache = expo.new_cache(n, nq, 4)
+    wk = expo.new_scratch(pt, 4, np.zeros(expo.N_COUNTERS, np.int64))
+    slot = expo._pattern_slot(cache, wk, x, pt)
+    md = expo._modes(cache, slot, wk)
+    expo._project(md, wk, x, pt)
+    return md, wk, x, pt, 0.1
+
+
+def test_ladder_and_closed_form_follow_the_divided_differences():
+    """The check ladder (exponentials advanced rung by rung) and the closed form in the
+    interval's coefficients give the modal state of the divided-difference form
+    (:func:`expo._zeta_at`, series near its removable singularities) to rounding."""
+    md, wk, x, pt, t0 = _interval_start()
+    lmax, sep = expo._rate_bounds(t0, md, wk, x, pt)
+    d_min = 0.1 / lmax
+    assert md.ladder.shape[0] == expo.LADDER_RUNGS
+    ref = np.empty_like(wk.zeta)
+    got = np.empty_like(wk.zeta)
+    nh = md.nh
+    wk.el[:] = 1.0
+    tau = 0.0
+    for m in [0, 5, 29, 3, 12, 12, 1, 29, 29, 7] * 3:
+        tau += expo._rung(d_min, m)
+        expo._ladder_check(m, tau, md, wk, pt)
+        expo._zeta_at(tau, md, wk, t0, pt, ref)
+        scale = np.abs(ref[:nh]).max()
+        assert np.abs(wk.zeta[:nh] - ref[:nh]).max() < 1e-12 * scale
+        expo._closed_form(tau, md, wk, pt, got)
+        assert np.abs(got[:nh] - ref[:nh]).max() < 1e-12 * scale
+    assert tau > 5.0 / abs(md.lam[:nh]).min() / 50     # the ladder went a long way
+
+
+def test_a_guarded_point_checks_without_the_ladder():
+    """The ladder is made from the slot's own eigenvalues; a point whose resonance guard
+    shifts them (undamped: a natural frequency on the forcing's) gets no rungs (every check
+    evaluates the exponentials)."""
+    md, wk, x, pt, t0 = _interval_start(viscosity=0.0)
+    cache_lam = md.lam.copy()
+    k = int(np.argmax(cache_lam.imag))
+    pt2 = pt._replace(om=float(cache_lam[k].imag))
+    cache = expo.new_cache(pt.Mm.shape[0], pt.S.shape[0], 4)
+    wk2 = expo.new_scratch(pt2, 4, np.zeros(expo.N_COUNTERS, np.int64))
+    slot = expo._pattern_slot(cache, wk2, x, pt2)
+    assert wk2.gslot[0] == slot and expo._modes(cache, slot, wk2).ladder.shape[0] == 0
+    wk1 = expo.new_scratch(pt, 4, np.zeros(expo.N_COUNTERS, np.int64))
+    assert expo._modes(cache, expo._pattern_slot(cache, wk1, x, pt), wk1).ladder.shape[0] \
+        == expo.LADDER_RUNGS
 
 
 def test_expo_with_the_interface_dashpot_follows_rk4():
