@@ -9,18 +9,17 @@ and the state obeys ``x' = A x + b + g_v F(t)``.  With the eigen-decomposition
           + f_0 \gamma_k \big(\tfrac12 e^{i\omega t_0}\psi(\lambda_k, i\omega, \tau)
           + \tfrac12 e^{-i\omega t_0}\psi(\lambda_k, -i\omega, \tau) - \phi(\lambda_k, \tau)\big)
 
-(``phi = (e^{l tau} - 1)/l``, ``psi = (e^{mu tau} - e^{l tau})/(mu - l)``).  The event
-functions are checked at adaptive points placed where no crossing can have happened before them (a bound
-of their second derivative from the closed form), spaced by the rungs of a ladder of
-lengths ``d_m = d_min 2^(m/3)`` so that the modal exponentials advance from check to check by
-one multiplication with factors ``e^{lam_k d_m}`` cached with the decomposition (the
-interval's closed form in the coefficients ``A_k e^{lam_k tau} + B_k + C_k e^{i w tau} +
-D_k e^{-i w tau}``); the earliest crossing is refined by Illinois
-with a bisection safeguard from the closed form above, the switches are applied and a new pattern starts.  The work of
-the load is integrated exactly; the friction dissipation follows from the slip of the sliding
-elements; with damping the damping dissipation is the remainder of the energy identity.
-Stick-slip law only.  Steps ``h`` only set the output grid and the largest spacing of the
-checks.
+(``phi = (e^{l tau} - 1)/l``, ``psi = (e^{mu tau} - e^{l tau})/(mu - l)``), or in an
+interval's coefficients ``zeta_k = A_k e^{lam_k tau} + B_k + C_k e^{i w tau} + D_k e^{-i w tau}``
+where these do not cancel (:func:`_state_at`).  The event functions are checked at adaptive
+points placed where no crossing can have happened before them (a bound of their second
+derivative from the closed form), on a ladder of spacings ``d_min 2^(m/3)`` whose factors
+``e^{lam_k d}`` are cached with the decomposition (a check advances the exponentials by one
+multiplication); the earliest crossing is refined by Illinois with a bisection safeguard, the
+switches are applied and a new pattern starts.  The work of the load is integrated exactly;
+the friction dissipation follows from the slip of the sliding elements; with damping the
+damping dissipation is the remainder of the energy identity.  Stick-slip law only.  Steps
+``h`` only set the output grid and the largest spacing of the checks.
 """
 
 from __future__ import annotations
@@ -61,13 +60,14 @@ Modes = namedtuple("Modes", ("lam", "V", "Vi", "SVq", "SVv", "cg", "gam", "nh", 
 
 #: per-point scratch: permanently free elements, stuck set, real state ``xr``, modal states
 #: ``zeta0`` (interval start), ``zeta`` (current), ``ztmp``, modal forcing ``beta``, the
-#: interface load ``rv``, rate bounds ``r1, r2`` (``r1`` also :func:`_project`'s scratch) and ``rate``, modal rate ``zdot``, slips
-#: ``sbuf``, slip rates ``sdbuf``, event functions ``fcur, fprev``, counters ``cnt`` (filled
-#: decompositions computed, events, checks, Zeno-guard steps); ``n_sub`` checks per step at
-#: least; ``glam`` the eigenvalues of the slot ``gslot[0]`` with the point's resonance guard
-#: applied (``gslot[0] = -1``: the current slot needs none, :func:`_pattern_slot`); the
-#: interval's closed-form coefficients ``ca, cb, cc, cd`` (``A_k, B_k, C_k, D_k``,
-#: :func:`_rate_bounds`) and the exponentials ``el = e^{lam_k tau}`` at the last check
+#: interface load ``rv``, rate bounds ``r1, r2`` (``r1`` also :func:`_project`'s scratch) and
+#: ``rate``, modal rate ``zdot``, slips ``sbuf``, slip rates ``sdbuf``, event functions
+#: ``fcur, fprev``, counters ``cnt`` (filled decompositions computed, events, checks,
+#: Zeno-guard steps); ``n_sub`` checks per step at least; ``glam`` the eigenvalues of the
+#: slot ``gslot[0]`` with the point's resonance guard applied (``gslot[0] = -1``: the current
+#: slot needs none, :func:`_pattern_slot`); the interval's closed-form coefficients ``ca, cb,
+#: cc, cd`` (``A_k, B_k, C_k, D_k``, :func:`_rate_bounds`) and the exponentials ``el =
+#: e^{lam_k tau}`` at the last check
 ExpoWork = namedtuple("ExpoWork", ("free", "stuck", "xr", "zeta0", "zeta", "ztmp", "beta", "rv",
                                    "r1", "r2", "zdot", "sbuf", "sdbuf", "fcur", "fprev", "rate",
                                    "cnt", "n_sub", "glam", "gslot", "ca", "cb", "cc", "cd", "el"))
