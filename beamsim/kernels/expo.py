@@ -81,8 +81,8 @@ _FILLED, _STORED = 0, 1
 #: spacing the bound allows beyond the top rung takes the top rung)
 LADDER_RUNGS = 30
 #: the closed form in the interval's coefficients (:func:`_closed_form`) is used where
-#: ``sep * span`` is at least this (its relative error ``eps / (sep tau)``; below, the
-#: divided differences of :func:`_zeta_at`)
+#: ``sep * span`` is at least this (below, its terms cancel and the divided differences of
+#: :func:`_zeta_at` are used)
 _SEP_MIN = 1e-3
 
 
@@ -513,8 +513,10 @@ def _closed_form(tau, md, wk, pt, out):
 def _state_at(tau, closed, md, wk, t0, pt, out):
     """Modal state at ``t0 + tau`` of the interval: :func:`_closed_form` if ``closed``, else
     :func:`_zeta_at`.  An interval uses one of them throughout (its refinement, its switch
-    decisions and its end state), so that the sign an element's event function had at the
-    end of its refinement is the sign the switch sees."""
+    decisions and its end state), so that the sign an element's event function had where its
+    refinement evaluated it is the sign the switch sees.  (A bracket whose right end is still
+    the check's, evaluated on the ladder, may end on a point where no element switches: the
+    interval then ends there without a switch and the next one starts from it.)"""
     if closed:
         _closed_form(tau, md, wk, pt, out)
     else:
@@ -669,8 +671,7 @@ def new_cache(n, nq, cache_size):
                         np.empty((C, n2), np.complex128), np.empty((C, n2), np.complex128),
                         np.zeros(C, np.int64), np.zeros(C, np.int64), np.zeros((C, n2)),
                         np.empty((C, nq, n2)), np.empty((C, LADDER_RUNGS, n2), np.complex128),
-                        np.zeros(2, np.int64),
-                        np.zeros(1, np.int64))
+                        np.zeros(2, np.int64), np.zeros(1, np.int64))
 
 
 @njit(**LEAF)

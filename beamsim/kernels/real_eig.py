@@ -2,8 +2,8 @@
 
 numba's ``np.linalg.eig`` of a real matrix refuses complex eigenvalues, so a real first-order
 matrix had to be decomposed as a complex one (LAPACK ``zgeev``).  LAPACK's real ``dgeev``
-finds the same eigenpairs in real arithmetic, about three times faster, and returns a complex
-pair as the real and imaginary parts of one eigenvector.  This module calls SciPy's ``dgeev``
+finds the same eigenpairs in real arithmetic, faster (docs/performance.md), and returns a
+complex pair as the real and imaginary parts of one eigenvector.  This module calls SciPy's ``dgeev``
 (``scipy.linalg.cython_lapack``, the LAPACK SciPy is built with) from compiled code: its address
 is registered with LLVM under a fixed name, so kernels that call it can be cached on disk.
 """
