@@ -176,4 +176,3 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
     for kernel, sel in ((copies.run_task, ~rigid), (copies.run_task_rigid, rigid)):
         run_items(kernel, args, np.flatnonzero(sel), threads)
     return (log_err, final) if return_final else log_err
-

@@ -432,9 +432,13 @@ def _rate_bounds(t0, md, wk, x, pt):
     ep = np.exp(1j * om * t0)
     io = 1j * om
     sep = math.inf
+    lmax = 0.0
     for k in range(md.nh):
         lk = lam[k]
-        sep = min(sep, abs(lk), abs(io - lk), abs(io + lk))
+        al = abs(lk)
+        if al > lmax:   # the same maximum, in the same order, as the ladder's (_lmax)
+            lmax = al
+        sep = min(sep, al, abs(io - lk), abs(io + lk))
         fg = f0 * gam[k]
         Bk = (fg - wk.beta[k]) / lk
         Ck = fg * 0.5 * ep / (io - lk)
@@ -444,7 +448,6 @@ def _rate_bounds(t0, md, wk, x, pt):
         wk.cb[k] = Bk
         wk.cc[k] = Ck
         wk.cd[k] = Dk
-        al = abs(lk)
         r1[k] = al * al * abs(Ak) + om * om * (abs(Ck) + abs(Dk))
         r2[k] = al * al * al * abs(Ak) + om * om * om * (abs(Ck) + abs(Dk))
     aS = md.aSVq
@@ -458,7 +461,7 @@ def _rate_bounds(t0, md, wk, x, pt):
             for k in range(md.nh):
                 acc += aS[j, k] * r2[k]
             wk.rate[j] = acc
-    return _lmax(lam, md.nh), sep
+    return lmax, sep
 
 
 @njit(**LEAF, inline="always")

@@ -37,7 +37,7 @@ EQUAL = dict(n_modes=2, mu_s=0.3, mu_k=0.3, Omega=1.5, f0_rel=6.66666666667, int
 #: the same point with mu_s = 1.5 mu_k (the default grid's ratio)
 ABOVE = dict(EQUAL, mu_s=0.45)
 #: EQUAL without the dashpot (the paper's beam has none) at a slightly larger load: expo's
-#: reference run (after 30-94 periods) and its Lyapunov copies meet the guard.  At f0_rel 6.67
+#: reference run (between periods 46 and 94) and its Lyapunov copies meet the guard.  At f0_rel 6.67
 #: the copies do, the reference run did up to results version 11 (not in 164 periods since)
 UNDAMPED = dict(EQUAL, interface_viscosity=0.0, f0_rel=7.0)
 #: the fixture's points: the guarded one, the one above it, the damped one at mu_s = mu_k
