@@ -61,8 +61,20 @@ def canonical_json(obj) -> str:
 def point_id(params: dict, numerics: Numerics | dict) -> str:
     """16-hex-digit identity of a point from its resolved parameters and the numerics (resolved:
     a setting left to its default gives the same id as the default written out)."""
-    resolved = as_numerics(numerics).result_dict()
-    payload = canonical_json({"params": params, "numerics": resolved, "version": RESULTS_VERSION})
+    return _hashed_id(params, canonical_numerics(numerics))
+
+
+def canonical_numerics(numerics: Numerics | dict) -> dict:
+    """The numerics' part of a point id (:func:`point_id`), to hash many points with one
+    resolution (:func:`expand_grid`)."""
+    return _canonical(as_numerics(numerics).result_dict())
+
+
+def _hashed_id(params: dict, numerics_canonical: dict) -> str:
+    # the same string as canonical_json({"params": .., "numerics": .., "version": ..}): the
+    # numerics are canonical already, and json.dumps sorts the keys
+    payload = json.dumps({"params": _canonical(params), "numerics": numerics_canonical,
+                          "version": RESULTS_VERSION}, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(payload.encode()).hexdigest()[:16]
 
 
@@ -111,14 +123,14 @@ def expand_grid(name: str, grid: dict, model_defaults: dict, numerics: Numerics 
     base = dict(model_defaults) | dict(grid.get("fixed", {}))
     names = list(axes)
     values = [axis_values(a, axes[a]) for a in names]
-    numerics = as_numerics(numerics)
+    resolved = canonical_numerics(numerics)
     points = []
     for idx in itertools.product(*(range(len(v)) for v in values)):
         params = dict(base)
         for a, i, v in zip(names, idx, values):
             params[a] = v[i]
         params = {k: v for k, v in params.items() if v is not None}
-        points.append(GridPoint(grid=name, index=idx, params=params, point_id=point_id(params, numerics)))
+        points.append(GridPoint(grid=name, index=idx, params=params, point_id=_hashed_id(params, resolved)))
     ids = [p.point_id for p in points]
     if len(set(ids)) != len(ids):
         raise ValueError(f"grid {name}: repeated points (an axis lists a value twice)")

@@ -31,6 +31,27 @@ def test_point_id_is_the_same_for_a_default_left_out_or_written_out():
     assert point_id(params, dict(partial, lyapunov={"n_periods": 50})) != point_id(params, full)
 
 
+def test_a_grid_point_has_the_id_of_its_definition():
+    """expand_grid hashes a grid with the numerics resolved once: each point's id is still the
+    definition's, sha256 of the canonical JSON of parameters, numerics and results version (a
+    stored result found under its id is the same point; numpy and Python values alike)."""
+    import hashlib
+
+    import numpy as np
+
+    from analysis.pipeline.grid import RESULTS_VERSION, canonical_json, expand_grid
+
+    nm = Numerics.from_dict({"n_transient": 300, "lyapunov": {"n_periods": 40}})
+    grid = {"axes": {"Omega": {"range": [1.25, 8.0], "num": 3, "scale": "log"}, "f0_rel": [0.8, 2]},
+            "fixed": {"mu_s": np.float64(0.45), "n_modes": np.int64(2)}}
+    points = expand_grid("g", grid, {"mu_k": 0.3, "k_t": 10.0, "law": "stick-slip"}, nm)
+    assert len(points) == 6
+    for p in points:
+        payload = canonical_json({"params": p.params, "numerics": nm.result_dict(), "version": RESULTS_VERSION})
+        assert p.point_id == hashlib.sha256(payload.encode()).hexdigest()[:16] == point_id(p.params, nm)
+    assert len({p.point_id for p in points}) == 6
+
+
 def test_result_dict_leaves_out_chunk_size_and_an_unset_step_count():
     d = Numerics(chunk_size=7).result_dict()
     assert "chunk_size" not in d and "steps_per_period" not in d
