@@ -90,10 +90,11 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
         enough tasks to occupy the threads (``ceil(threads / P)``).
     method : ``"rk4"`` (the reference: every copy on the drive's RK4 steps, couplings allowed)
         or ``"expo"`` (:mod:`beamsim.kernels.expo_copies`: drive and copies each propagated
-        exactly between their own located switches; stick-slip law and free copies, ``d = 0``,
-        only).  With ``expo`` the copies are measured and rescaled at the ``expo`` output
-        grid's step ends (``steps_per_period``, default 64 per period) and ``step_factor`` is
-        not used; ``event_checks``, ``pattern_cache`` and ``pattern_store`` are ``expo``'s
+        exactly between their own located switches; stick-slip law only; a coupling acts as
+        its own flow at the output grid's step ends, exact in the linearised dynamics).  With
+        ``expo`` the copies are measured, coupled and rescaled at the ``expo`` output grid's
+        step ends (``steps_per_period``, default 64 per period) and ``step_factor`` only sets
+        the adoption window; ``event_checks``, ``pattern_cache`` and ``pattern_store`` are ``expo``'s
         (:func:`beamsim.simulate.simulate_batch`; a thread's drives and copies share its
         cache).
     adoption : ``expo`` only: how a copy takes the drive's stick/slip state where the two
@@ -134,8 +135,6 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
     if method == "expo":
         for pp in prepared:
             check_method_law("expo", pp.friction.law)
-        if np.any(d != 0):
-            raise ValueError("method='expo' integrates free copies only (d = 0)")
         if adoption not in ("window", "grid"):
             raise ValueError(f"adoption must be 'window' or 'grid', got {adoption!r}")
         event_checks = check_int("event_checks", event_checks, 1)

@@ -142,7 +142,7 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
              steps_per_period: int | None = None, step_factor: float = 0.5,
              n_threads: int | None = None, plan: BlockPlan | None = None,
              free_method: str = "rk4", free_e0: float | None = None,
-             free_steps: int | None = None) -> list[BeamLLE]:
+             free_steps: int | None = None, ladder_method: str = "rk4") -> list[BeamLLE]:
     """Stefanski and Benettin estimates of ``lambda_1`` for each point, and with ``plan`` the
     block statistics of a long Benettin record.
 
@@ -179,8 +179,12 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
         the coupled copies; ``"expo"``: drive and copy each exact between their own located
         switches (:mod:`beamsim.kernels.expo_copies`; stick-slip law; ``expo``'s event
         location has a noise floor near ``1e-6`` of the attractor, so ``free_e0`` must stay
-        well above it: docs/lyapunov.md, section 12).  The coupled copies of the Stefanski
-        ladder always run on RK4 (``e0``, ``steps_per_period``, ``step_factor``).  A point
+        well above it: docs/lyapunov.md, section 12).
+    ladder_method : integrator of the Stefanski ladder's coupled copies: ``"rk4"`` (the RK4
+        pair: ``e0``, ``steps_per_period``, ``step_factor``) or ``"expo"`` (the free copy's
+        settings ``free_e0``, ``free_steps``, the coupling applied as its own flow at the
+        output grid's step ends: :mod:`beamsim.kernels.expo_copies`; needs
+        ``free_method="expo"``, whose guard and fallback then cover the ladder too).  A point
         whose ``expo`` drive or copy meets ``expo``'s Zeno guard (a switch cascade cut short
         at a step end, which leaves that trajectory behind in time) is run again as with
         ``free_method="rk4"`` (``free_e0 = e0``); its :attr:`BeamLLE.free_copy` says so
@@ -192,12 +196,15 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
               window=window, k_align=k_align, seed=seed, band=band, with_benettin=with_benettin,
               zero_first=zero_first, seed_ladder=seed_ladder, steps_per_period=steps_per_period,
               step_factor=step_factor, n_threads=n_threads, plan=plan)
+    if ladder_method not in ("rk4", "expo") or (ladder_method == "expo" and free_method != "expo"):
+        raise ValueError(f"beam_lle: ladder_method must be 'rk4', or 'expo' with free_method='expo'; "
+                         f"got {ladder_method!r} with {free_method!r}")
     out, guarded = _estimates(prepared, x_start, scales, free_method=free_method, free_e0=free_e0,
-                              free_steps=free_steps, **kw)
+                              free_steps=free_steps, ladder_method=ladder_method, **kw)
     if guarded.any():  # only expo has the guard: these points as with free_method="rk4"
         idx = np.flatnonzero(guarded)
         rerun, _ = _estimates([prepared[i] for i in idx], x_start[idx], scales[idx], free_method="rk4",
-                              free_e0=None, free_steps=None, **kw)
+                              free_e0=None, free_steps=None, ladder_method="rk4", **kw)
         for i, est in zip(idx, rerun):
             est.free_copy = ZENO_FALLBACK
             out[i] = est
@@ -209,9 +216,10 @@ def _estimates(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_per
                band: tuple[float, float], with_benettin: bool, zero_first: bool, seed_ladder: bool,
                steps_per_period: int | None, step_factor: float, n_threads: int | None,
                plan: BlockPlan | None, free_method: str, free_e0: float | None,
-               free_steps: int | None) -> tuple[list, np.ndarray]:
-    """:func:`beam_lle` with the free copy on ``free_method`` whatever happens: the estimates
-    (``None`` for a point whose ``expo`` pair met the Zeno guard) and which points did."""
+               free_steps: int | None, ladder_method: str) -> tuple[list, np.ndarray]:
+    """:func:`beam_lle` with the free copy on ``free_method`` and the ladder on
+    ``ladder_method`` whatever happens: the estimates (``None`` for a point whose ``expo`` pair
+    or ``expo`` ladder met the Zeno guard) and which points did."""
     from beamsim.coupled_copies import run_copies
     from beamsim.pattern_store import PatternStore
     from beamsim.point import period_steps
@@ -231,6 +239,7 @@ def _estimates(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_per
         free_kw.update(steps_per_period=free_steps, pattern_store=PatternStore())
     free_offs = offs if free_e0 == e0 else [initial_offset(prepared[i], scales[i], free_e0, seed)
                                               for i in range(P)]
+    ladder_kw, ladder_offs = (free_kw, free_offs) if ladder_method == "expo" else (run_kw, offs)
 
     # round 0 for every point at once: one free copy (d = 0) per point.  Its recorded ln eps is
     # the error of the linearised, unbounded dynamics (the rescaling factors are carried), so
@@ -262,6 +271,7 @@ def _estimates(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_per
         t_s = t[1:]
         h = T / period_steps(pp, "rk4", steps_per_period, step_factor)
         n_runs = [0]
+        met_guard = [False]  # an expo ladder copy met expo's Zeno guard: the point falls back
 
         def run_batch(ds: np.ndarray, i=i, pp=pp):
             ds = np.asarray(ds, dtype=float)
@@ -269,8 +279,10 @@ def _estimates(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_per
                 n_runs[0] += 1
                 return sync_test(le0[i, :1, 1:], t_s, window)
             n_runs[0] += 1
-            le = run_copies([pp], x_start[i:i + 1], np.repeat(offs[i][None, None, :], ds.size, axis=1),
-                            ds[None, :], inv[i:i + 1], **run_kw)
+            zeno = np.zeros((1, ds.size + 1), np.int64)
+            le = run_copies([pp], x_start[i:i + 1], np.repeat(ladder_offs[i][None, None, :], ds.size, axis=1),
+                            ds[None, :], inv[i:i + 1], zeno_out=zeno, **ladder_kw)
+            met_guard[0] = met_guard[0] or bool(zeno.any())
             return sync_test(le[0, :, 1:], t_s, window)
 
         ben = (_benettin(le0[i, 0], t, k_align) if with_benettin
@@ -278,9 +290,14 @@ def _estimates(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_per
         t_pt = time.perf_counter()
         st = sync_search(run_batch, t_s=t_s, batch=batch, rtol=rtol, atol=1e-3 / T,
                          omega_c=pp.omega, d_cap=coupling_cap(h), zero_tol=zero_tolerance(n_periods * T),
-                         e0=free_e0 if zero_first else e0, bounded=True, max_rounds=max_rounds,
+                         e0=free_e0 if zero_first or ladder_method == "expo" else e0, bounded=True,
+                         max_rounds=max_rounds,
                          zero_first=zero_first,
                          ladder_hint=ben.value if seed_ladder else None)
+        if met_guard[0]:
+            guarded[i] = True
+            out.append(None)
+            continue
         st.runtime = time.perf_counter() - t_pt + t_round0 / P
         st.extras["n_batches"] = n_runs[0]
         out.append(BeamLLE(stefanski=st, benettin=ben, period=T, statistics=stats[i],

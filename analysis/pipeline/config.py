@@ -40,8 +40,13 @@ class LyapunovNumerics:
         after half the RK4 step of ``step_factor``; stick-slip law only; 6-8x cheaper per
         period: docs/lyapunov.md, section 12) or ``auto`` (the default: ``expo`` for the
         stick-slip law with ``mu_s > mu_k``, ``rk4`` otherwise:
-        :func:`analysis.pipeline.stages.free_copy_integrator`).  The Stefanski ladder's coupled
-        copies always run on RK4.
+        :func:`analysis.pipeline.stages.free_copy_integrator`).
+    ladder : integrator of the Stefanski ladder's coupled copies (the cross-check column):
+        ``rk4`` (the default: the RK4 pair on ``step_factor``) or ``expo`` (where the free copy
+        is ``expo``'s: the coupling applied as its own flow at the output grid's step ends,
+        exact in the linearised dynamics, :mod:`beamsim.kernels.expo_copies`; about 10x
+        cheaper, its values compared with the RK4 ladder's in docs/lyapunov.md, section 13).
+        Labels do not read it.  Not part of a point's id when ``rk4``.
     expo_e0 : initial (and renormalised) scaled separation of an ``expo`` free copy; ``expo``'s
         event location has a noise floor near ``1e-6`` of the attractor, so the RK4 pair's
         ``1e-6`` would measure it (docs/lyapunov.md, section 12).  Not part of a point's id
@@ -59,6 +64,7 @@ class LyapunovNumerics:
     step_factor: float = 0.5
     method: str = "auto"
     expo_e0: float = 1e-4
+    ladder: str = "rk4"
     nolds_emb_dim: int = 6
     # the long record's defaults are BlockPlan's (one place)
     block_periods: int = BlockPlan.block
@@ -148,6 +154,9 @@ class Numerics:
             # the RK4 pair of results version 8 and before: the separation of an expo copy does
             # not enter its results, so it does not enter its ids
             del out["lyapunov"]["expo_e0"]
+        if out["lyapunov"]["ladder"] == "rk4":
+            # the ladder of results version 12 and before: ids of points that keep it unchanged
+            del out["lyapunov"]["ladder"]
         return out
 
 

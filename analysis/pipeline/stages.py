@@ -349,7 +349,8 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
             res = beam_lle(pps, starts, scales, n_periods=lopt.n_periods, steps_per_period=rk4_steps,
                            step_factor=lopt.step_factor, n_threads=threads, plan=plan,
                            free_method=method, free_steps=spp or None,
-                           free_e0=lopt.expo_e0 if method == "expo" else None)
+                           free_e0=lopt.expo_e0 if method == "expo" else None,
+                           ladder_method="expo" if lopt.ladder == "expo" and method == "expo" else "rk4")
             for i, est in zip(subset, res):
                 if i in fell_back and asked[i] == "expo":
                     est.free_copy = ZENO_FALLBACK

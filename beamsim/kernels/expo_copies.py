@@ -30,8 +30,20 @@ at once (it is then within ``e0`` of the drive), a moved copy is return-mapped
 projected afresh at every period end and the time runs within the period, so a run restarted
 from the end states (``final``) continues the drive exactly as one longer run does.
 
-Stick-slip (Jenkins) law only; free copies only (a coupling ``d (x - y)`` would make a copy's
-system non-autonomous in the drive's state, which the closed form does not cover).
+**Coupled copies** (``d > 0``, the Stefanski ladder).  The coupling ``d (x - y)`` of
+:mod:`beamsim.coupled_copies` is applied as its own flow at every output step end: the copy is
+moved to ``x + e^{-d h} (y - x)`` on ``(q, v, z)`` (``h``: the output step), return-mapped and
+projected afresh, keeping its own stick/slip state; between step ends it is a free ``expo``
+trajectory.  While the copy and the drive are in the same stick pattern their difference obeys
+``e' = (A_p - d) e`` (the load and the pattern's constant terms cancel) and ``d I`` commutes
+with everything linear, so in the linearised dynamics, saltations at switches included, the
+split is exact: ``e_d(t) = e^{-d t} e_0(t)`` at the step ends, as for the RK4 pair (tested).
+What the split changes is the copy's separation *within* a step (up to ``e^{d h}`` larger), so
+the nonlinear events that decide Stefanski's test against Benettin's -- a switch one trajectory
+makes and the other does not -- see a slightly larger separation; the coupling's effect on a
+mismatch window (at most ``tau_a``) is first order in ``d h``.
+
+Stick-slip (Jenkins) law only.
 """
 
 from __future__ import annotations
@@ -44,7 +56,7 @@ from numba import njit
 
 from beamsim.kernels import common, expo
 from beamsim.kernels.bundles import LEAF, State, Tally, point_at
-from beamsim.kernels.copies import CopySchedule, CopySpec, adopt_modes, error, measure_copy
+from beamsim.kernels.copies import CopySchedule, CopySpec, adopt_modes, error, measure_copy, rescale
 from beamsim.results import N_STATS
 
 #: ``expo``'s checks per step, the adoption window ``tau_a`` (time units; ``<= 0``: adopt at
@@ -281,30 +293,38 @@ def _copy_step(r, t0, t1, rows, work, pt, tally, opts, spec, band):
 
 @njit(**LEAF)
 def _measure(p, c0, step, rows, spec, band, n_per, pt, tally, log_err, grid_adoption):
-    """After a step: each copy's scaled error, recorded (with the carried rescaling factors)
-    at period ends; a copy outside the band (or flagged for period renormalisation at a period
-    end) is moved back to ``e0`` and takes the drive's stick/slip state (with
-    ``grid_adoption`` every copy within ``10 e0`` does); a moved copy is return-mapped and its
-    pattern looked up again; a copy whose error is not finite is dropped (``+inf`` from then
-    on)."""
+    """After a step: a coupled copy (``d > 0``) is first moved to ``x + e^{-d h} (y - x)``
+    (``h``: the output step; the coupling's flow, see the module docstring); then each copy's
+    scaled error, recorded (with the carried rescaling factors) at period ends; a copy outside
+    the band (or flagged for period renormalisation at a period end) is moved back to ``e0``
+    and takes the drive's stick/slip state (with ``grid_adoption`` every copy within ``10 e0``
+    does); a moved copy is return-mapped and its pattern looked up again; a copy whose error is
+    not finite is dropped (``+inf`` from then on)."""
     x = _row(rows, 0)
-    t = ((step % n_per) + 1) * (2.0 * math.pi / pt.om) / n_per
+    h = (2.0 * math.pi / pt.om) / n_per
+    t = ((step % n_per) + 1) * (2.0 * math.pi / pt.om) / n_per  # as the free copies always had it
     for m in range(rows.logacc.shape[0]):
         r = m + 1
         if not rows.alive[r]:
             continue
         y = _row(rows, r)
+        coupled = spec.d[c0 + m] > 0.0
+        if coupled:
+            rescale(math.exp(-spec.d[c0 + m] * h), x, y)  # not carried: the coupling is dynamics
         e, moved = measure_copy(p, c0, m, step, n_per, x, y, rows.logacc, spec, band, log_err)
         if not math.isfinite(e):
             rows.alive[r] = False
             continue
         if (moved or grid_adoption) and e <= 10.0 * band.e0 and adopt_modes(x, y, pt) > 0:
             moved = True
-        if moved:
+        if moved or coupled:
             common.post_step(t, y, pt, tally, False, True)
             rows.slots[r] = -1
             for j in range(rows.mstart.shape[1]):
-                rows.mstart[r, j] = -1.0 if y.mode[j] == x.mode[j] else t
+                if y.mode[j] == x.mode[j]:
+                    rows.mstart[r, j] = -1.0
+                elif moved or rows.mstart[r, j] < 0.0:
+                    rows.mstart[r, j] = t  # a mismatch from here (a contracted copy keeps its own)
 
 
 @njit(cache=True)

@@ -31,6 +31,16 @@ def test_point_id_is_the_same_for_a_default_left_out_or_written_out():
     assert point_id(params, dict(partial, lyapunov={"n_periods": 50})) != point_id(params, full)
 
 
+def test_the_ladder_enters_the_id_only_when_not_the_rk4_one():
+    params = {"n_modes": 1, "Omega": 2.0}
+    assert "ladder" not in Numerics().result_dict()["lyapunov"]
+    expo = Numerics.from_dict({"lyapunov": {"ladder": "expo"}})
+    assert expo.result_dict()["lyapunov"]["ladder"] == "expo"
+    assert point_id(params, expo) != point_id(params, Numerics())
+    rk4 = Numerics.from_dict({"lyapunov": {"ladder": "rk4"}})
+    assert point_id(params, rk4) == point_id(params, Numerics())
+
+
 def test_a_grid_point_has_the_id_of_its_definition():
     """expand_grid hashes a grid with the numerics resolved once: each point's id is still the
     definition's, sha256 of the canonical JSON of parameters, numerics and results version (a
@@ -47,8 +57,10 @@ def test_a_grid_point_has_the_id_of_its_definition():
     points = expand_grid("g", grid, {"mu_k": 0.3, "k_t": 10.0, "law": "stick-slip"}, nm)
     assert len(points) == 6
     for p in points:
-        payload = canonical_json({"params": p.params, "numerics": nm.result_dict(), "version": RESULTS_VERSION})
-        assert p.point_id == hashlib.sha256(payload.encode()).hexdigest()[:16] == point_id(p.params, nm)
+        payload = canonical_json({"params": p.params, "numerics": nm.result_dict(),
+                                  "version": RESULTS_VERSION})
+        expected = hashlib.sha256(payload.encode()).hexdigest()[:16]
+        assert p.point_id == expected == point_id(p.params, nm)
     assert len({p.point_id for p in points}) == 6
 
 

@@ -122,3 +122,26 @@ def test_a_damaged_store_record_is_recomputed_not_loaded(tmp_path):
     again = simulate_points(pts, RK4, str(tmp_path), threads=2)
     pd.testing.assert_frame_equal(again, first)
     assert store.find(pts[1]["point_id"]) is not None
+
+
+def test_the_ladder_setting_reaches_the_stefanski_column_only(tmp_path):
+    """``numerics.lyapunov.ladder: expo`` runs the Stefanski ladder on ``expo``: at a chaotic
+    two-mode point the Stefanski value changes and stays chaotic, the label's columns (the free
+    copy's Benettin value and block statistics) are the same to the bit."""
+    point = {"n_modes": 2, "mu_s": 0.45, "mu_k": 0.3, "interface_damping": 0.5,
+             "Omega": 1.84770278237, "f0_rel": 1.4962340536}  # tests/analysis/test_lyapunov_beam.py
+    base = {"n_transient": 60, "n_record": 128, "n_transient_max": 60, "continuation_check": False,
+            "lyapunov": {"n_periods": 20, "block_periods": 5, "burn_in": 1, "min_blocks": 2, "max_blocks": 2}}
+    expo = base | {"lyapunov": base["lyapunov"] | {"ladder": "expo"}}
+    pts = _payload([point], base)
+    sim = simulate_points(pts, base, str(tmp_path), threads=2)
+    a = lyapunov_points(pts, sim, base, str(tmp_path / "rk4"), threads=2)
+    b = lyapunov_points(_payload([point], expo), sim.assign(point_id=_payload([point], expo)[0]["point_id"]),
+                        expo, str(tmp_path / "expo"), threads=2)
+    for col in ("lle_benettin", "lle_mean", "lle_lo", "lle_hi", "lle_verdict"):
+        assert np.array_equal(a[col].to_numpy(), b[col].to_numpy(), equal_nan=a[col].dtype.kind == "f"), col
+    assert np.isfinite(a["lle_benettin"][0])
+    assert a["lle_free_copy"][0] == b["lle_free_copy"][0] == "expo"
+    assert a["lle_stefanski_verdict"][0].startswith("chaotic"), a["lle_stefanski_verdict"][0]
+    assert b["lle_stefanski_verdict"][0].startswith("chaotic"), b["lle_stefanski_verdict"][0]
+    assert a["lle_stefanski"][0] != b["lle_stefanski"][0]
