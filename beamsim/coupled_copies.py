@@ -9,15 +9,16 @@ stick/slip state, started from a full restart state (``SimResult.final_state``),
 
 on every continuous state variable (``q``, ``v`` and ``z``): ``d_m = 0`` is a free copy
 (two-trajectory / Benettin estimate), ``d_m > 0`` is the one-way coupling of the Stefanski
-synchronisation method.  All of them use the RK4 reference scheme of
-:mod:`beamsim.kernels.rk4` with the same step.  The drive is stepped exactly as the reference
-run steps it (split only at its own stick/slip switches), so its trajectory does not depend on
-the copies: every copy of a point, in whatever task or batch, follows the same drive.  A copy
-follows the drive's substeps and splits them further at its own switches; a coupled copy
-integrates the drive's substep alongside (from the drive's state at the substep start) and the
-coupling enters every RK4 stage with the drive's stage state, so the coupled pair is
-integrated as one system.  Each copy's Jenkins elements are return-mapped after every step
-exactly as the drive's.
+synchronisation method.  With ``method="rk4"`` (described here) all of them use the RK4
+reference scheme of :mod:`beamsim.kernels.rk4` with the same step; ``method="expo"`` runs them
+on ``expo`` (:mod:`beamsim.kernels.expo_copies`, which describes its coupling).  The drive
+is stepped exactly as the reference run steps it (split only at its own stick/slip
+switches), so its trajectory does not depend on the copies: every copy of a point, in
+whatever task or batch, follows the same drive.  A copy follows the drive's substeps and
+splits them further at its own switches; a coupled copy integrates the drive's substep
+alongside (from the drive's state at the substep start) and the coupling enters every RK4
+stage with the drive's stage state, so the coupled pair is integrated as one system.  Each
+copy's Jenkins elements are return-mapped after every step exactly as the drive's.
 
 The scaled error of copy ``m`` is the RMS over the ``2 n`` components of ``(q, v)``:
 
