@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 import pytest
+from beam_copies import CHAOTIC_2MODES, check_coupling_closed_form, stretches
 
 from analysis.lyapunov.beam import attractor_scale, beam_benettin, beam_lle, initial_offset, response_scale
 from beamsim.coupled_copies import run_copies
@@ -25,10 +26,6 @@ STUCK = dict(BASE, Omega=2.5, f0_rel=0.5, mu_s=0.45)        # below onset: undam
 # chaotic: three modes and static friction three times the kinetic one (docs/lyapunov.md s.7:
 # lambda_1 T = 1.67 per forcing period over 400 periods, converged in the step)
 CHAOTIC = dict(n_modes=3, mu_s=0.9, mu_k=0.3, interface_damping=0.5, Omega=1.5, f0_rel=2.2)
-#: a chaotic point of the default grid's axes with two modes (row 89 of the two-mode run,
-#: docs/lyapunov.md s.7): weaker static/kinetic drop, and a tight Stefanski threshold
-CHAOTIC_2MODES = dict(n_modes=2, mu_s=0.45, mu_k=0.3, interface_damping=0.5, Omega=1.84770278237,
-                      f0_rel=1.4962340536)
 
 
 @pytest.fixture(scope="module")
@@ -104,17 +101,7 @@ def test_coupling_obeys_the_closed_form(settled):
     """e_d(t) = exp(-d t) e_0(t) for the linearised dynamics (the coupling adds -d I to the
     variational equation), measured without rescaling."""
     pts, res, prepared, scales = settled
-    pp = prepared[0]
-    T = 2 * math.pi / pp.omega
-    d = np.array([[0.0, 0.1 / T, 0.3 / T]])
-    le = run_copies([pp], res[0].final_state[None], _offsets(pp, scales[0], (1e-6,) * 3), d,
-                    1 / scales[:1], n_periods=8, e0=1e-6, band=(1e-30, 1e30))
-    t = np.arange(9) * T
-    for m in (1, 2):
-        measured = le[0, m, 1:] - le[0, 0, 1:]
-        expected = -d[0, m] * t[1:]
-        print(f"\ncoupling d T = {d[0, m] * T:.1f}: ln(e_d / e_0) per period", measured)
-        assert np.allclose(measured, expected, rtol=0.02, atol=0.01), (m, measured, expected)
+    check_coupling_closed_form(prepared[0], res[0].final_state, scales[0], 1e-6)
 
 
 def test_results_do_not_depend_on_threads_or_other_copies(settled):
@@ -194,17 +181,9 @@ def test_stefanski_agrees_with_benettin_at_a_two_mode_chaotic_point():
     1.017, 1.026, 1.209 on one CPU, 1.293, 1.097, 1.051 on another (docs/lyapunov.md s.7).
     Asserted: both chaotic on every stretch, Stefanski an upper bound within Benettin's window
     noise (>= 0.95 of it), and the median ratio within 10 %."""
-    pp = prepare_point(**CHAOTIC_2MODES)
-    r = simulate_batch([CHAOTIC_2MODES], n_transient=60, n_record=128, method="rk4", step_factor=1.0,
-                       n_threads=2)[0]
-    later = [r]
-    for n in (60, 80):  # states 60 and 140 periods after the pipeline's start
-        later.append(simulate_batch([CHAOTIC_2MODES | restart_params(later[-1])], n_transient=0, n_record=n,
-                                    method="rk4", step_factor=1.0, n_threads=1)[0])
-    scale = attractor_scale(r.poincare_state, response_scale(pp), pp.omega)
+    pp, starts, scale = stretches(CHAOTIC_2MODES, (60, 80))  # and 60 and 140 periods later
     T = 2 * math.pi / pp.omega
-    ests = beam_lle([pp] * 3, np.stack([x.final_state for x in later]), np.stack([scale] * 3),
-                    n_periods=100, n_threads=2)
+    ests = beam_lle([pp] * 3, starts, np.stack([scale] * 3), n_periods=100, n_threads=2)
     ratios = []
     for est in ests:
         st, be = est.stefanski.value * T, est.benettin.value * T

@@ -128,8 +128,8 @@ def test_the_ladder_setting_reaches_the_stefanski_column_only(tmp_path):
     """``numerics.lyapunov.ladder: expo`` runs the Stefanski ladder on ``expo``: at a chaotic
     two-mode point the Stefanski value changes and stays chaotic, the label's columns (the free
     copy's Benettin value and block statistics) are the same to the bit."""
-    point = {"n_modes": 2, "mu_s": 0.45, "mu_k": 0.3, "interface_damping": 0.5,
-             "Omega": 1.84770278237, "f0_rel": 1.4962340536}  # tests/analysis/test_lyapunov_beam.py
+    from beam_copies import CHAOTIC_2MODES as point
+
     base = {"n_transient": 60, "n_record": 128, "n_transient_max": 60, "continuation_check": False,
             "lyapunov": {"n_periods": 20, "block_periods": 5, "burn_in": 1, "min_blocks": 2, "max_blocks": 2}}
     expo = base | {"lyapunov": base["lyapunov"] | {"ladder": "expo"}}
