@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -23,10 +23,12 @@ from beamsim.results import ZENO_FALLBACK
 log = logging.getLogger("regimes")
 
 
-def _cached_stage(points: Sequence[dict], store: PointStore, compute: Callable[[list[dict]], list[dict]],
-                  batch_size: int, stage: str) -> list[dict]:
+def _cached_stage(points: Sequence[dict], store: PointStore,
+                  compute: Callable[[list[dict]], Iterable[tuple[dict, dict]]], stage: str) -> list[dict]:
     """Records for ``points``: from the store where present (and loadable: a damaged record is
-    recomputed), else ``compute``d in batches."""
+    recomputed), else from ``compute(todo)``, which yields ``(point, record)`` pairs in any
+    order as they are done; each is stored at once (an interrupted job keeps what it finished).
+    Progress is logged every 25 points."""
     records = {}
     for p in points:
         rec = store.find(p["point_id"])
@@ -38,13 +40,11 @@ def _cached_stage(points: Sequence[dict], store: PointStore, compute: Callable[[
     n, done = len(points), len(points) - len(todo)
     log.info("%s: %d points, %d cached, %d to compute", stage, n, done, len(todo))
     t0 = time.perf_counter()
-    for start in range(0, len(todo), batch_size):
-        batch = todo[start:start + batch_size]
-        for p, rec in zip(batch, compute(batch)):
-            store.save(p["point_id"], rec)
-            records[p["point_id"]] = store.load(p["point_id"])  # as a later run reads it
-        done += len(batch)
-        log.info("%s: %d / %d points done (%.1f s)", stage, done, n, time.perf_counter() - t0)
+    for k, (p, rec) in enumerate(compute(todo), start=1):
+        store.save(p["point_id"], rec)
+        records[p["point_id"]] = store.load(p["point_id"])  # as a later run reads it
+        if k % 25 == 0 or k == len(todo):
+            log.info("%s: %d / %d points done (%.1f s)", stage, done + k, n, time.perf_counter() - t0)
     return [records[p["point_id"]] for p in points]
 
 
@@ -249,7 +249,7 @@ def simulate_points(points: Sequence[dict], numerics: Numerics | dict, store_roo
     for another point's continuation, and one point's tests (Python) overlap another's kernel
     (which releases the GIL).  A point's record depends on its own runs only, so this is the
     record of any batching, to the bit."""
-    from concurrent.futures import ThreadPoolExecutor
+    from concurrent.futures import ThreadPoolExecutor, as_completed
 
     from beamsim.pattern_store import PatternStore
 
@@ -260,13 +260,21 @@ def simulate_points(points: Sequence[dict], numerics: Numerics | dict, store_roo
     def one(p: dict) -> dict:
         return simulate_runs([p], nm, 1, patterns)[0]
 
-    def compute(batch: list[dict]) -> list[dict]:
+    def compute(todo: list[dict]) -> Iterator[tuple[dict, dict]]:
         if threads <= 1:
-            return [one(p) for p in batch]
-        with ThreadPoolExecutor(max_workers=threads) as pool:
-            return list(pool.map(one, batch))
+            yield from ((p, one(p)) for p in todo)
+            return
+        # one pool for the whole chunk, no barrier between batches: a point that runs long
+        # (a long adaptive transient, an RK4 fallback) holds one thread, not both
+        pool = ThreadPoolExecutor(max_workers=threads)
+        try:
+            futures = {pool.submit(one, p): p for p in todo}
+            for f in as_completed(futures):
+                yield futures[f], f.result()
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
 
-    recs = _cached_stage(points, store, compute, batch_size=max(2 * threads, 25), stage="simulate")
+    recs = _cached_stage(points, store, compute, stage="simulate")
     return records_table(points, recs)
 
 
@@ -441,17 +449,17 @@ def lyapunov_points(points: Sequence[dict], simulated: pd.DataFrame, numerics: N
     sim = simulated.set_index("point_id")
     nm = as_numerics(numerics)
 
-    def compute(batch: list[dict]) -> list[dict]:
-        groups: dict = {}
-        for i, p in enumerate(batch):
-            groups.setdefault((p["params"].get("n_modes"), p["params"].get("n_quad")), []).append(i)
-        recs: list = [None] * len(batch)
-        for idx in groups.values():
-            for i, rec in zip(idx, lyapunov_runs([batch[i] for i in idx], sim, nm, threads)):
-                recs[i] = rec
-        return recs
+    def compute(todo: list[dict]) -> Iterator[tuple[dict, dict]]:
+        size = max(2 * threads, 25)  # batched: the kernels thread over a batch's points
+        for start in range(0, len(todo), size):
+            batch = todo[start:start + size]
+            groups: dict = {}
+            for i, p in enumerate(batch):
+                groups.setdefault((p["params"].get("n_modes"), p["params"].get("n_quad")), []).append(i)
+            for idx in groups.values():
+                yield from zip([batch[i] for i in idx], lyapunov_runs([batch[i] for i in idx], sim, nm, threads))
 
-    recs = _cached_stage(points, store, compute, batch_size=max(2 * threads, 25), stage="lyapunov")
+    recs = _cached_stage(points, store, compute, stage="lyapunov")
     return records_table(points, recs)
 
 

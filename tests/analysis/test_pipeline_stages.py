@@ -125,19 +125,20 @@ def test_a_damaged_store_record_is_recomputed_not_loaded(tmp_path):
 
 
 def test_the_ladder_setting_reaches_the_stefanski_column_only(tmp_path):
-    """``numerics.lyapunov.ladder: expo`` runs the Stefanski ladder on ``expo``: at a chaotic
-    two-mode point the Stefanski value changes and stays chaotic, the label's columns (the free
-    copy's Benettin value and block statistics) are the same to the bit."""
+    """``numerics.lyapunov.ladder`` (``expo``, the default, or ``rk4``) picks the integrator of
+    the Stefanski ladder only: at a chaotic two-mode point the Stefanski value changes and stays
+    chaotic, the label's columns (the free copy's Benettin value and block statistics) are the
+    same to the bit."""
     from beam_copies import CHAOTIC_2MODES as point
 
     base = {"n_transient": 60, "n_record": 128, "n_transient_max": 60, "continuation_check": False,
             "lyapunov": {"n_periods": 20, "block_periods": 5, "burn_in": 1, "min_blocks": 2, "max_blocks": 2}}
-    expo = base | {"lyapunov": base["lyapunov"] | {"ladder": "expo"}}
+    rk4 = base | {"lyapunov": base["lyapunov"] | {"ladder": "rk4"}}
     pts = _payload([point], base)
     sim = simulate_points(pts, base, str(tmp_path), threads=2)
-    a = lyapunov_points(pts, sim, base, str(tmp_path / "rk4"), threads=2)
-    b = lyapunov_points(_payload([point], expo), sim.assign(point_id=_payload([point], expo)[0]["point_id"]),
-                        expo, str(tmp_path / "expo"), threads=2)
+    b = lyapunov_points(pts, sim, base, str(tmp_path / "expo"), threads=2)
+    a = lyapunov_points(_payload([point], rk4), sim.assign(point_id=_payload([point], rk4)[0]["point_id"]),
+                        rk4, str(tmp_path / "rk4"), threads=2)
     for col in ("lle_benettin", "lle_mean", "lle_lo", "lle_hi", "lle_verdict"):
         assert np.array_equal(a[col].to_numpy(), b[col].to_numpy(), equal_nan=a[col].dtype.kind == "f"), col
     assert np.isfinite(a["lle_benettin"][0])
