@@ -457,7 +457,8 @@ def lyapunov_points(points: Sequence[dict], simulated: pd.DataFrame, numerics: N
             for i, p in enumerate(batch):
                 groups.setdefault((p["params"].get("n_modes"), p["params"].get("n_quad")), []).append(i)
             for idx in groups.values():
-                yield from zip([batch[i] for i in idx], lyapunov_runs([batch[i] for i in idx], sim, nm, threads))
+                part = [batch[i] for i in idx]
+                yield from zip(part, lyapunov_runs(part, sim, nm, threads))
 
     recs = _cached_stage(points, store, compute, stage="lyapunov")
     return records_table(points, recs)
