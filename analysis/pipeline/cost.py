@@ -115,12 +115,14 @@ def load_cost_model(path: Path = COST_MODEL_FILE) -> dict:
 
 def _coefficient(table: Mapping, n_modes: int) -> float:
     """``c`` at ``n_modes``; above the largest measured mode count, extrapolated with the growth
-    factor of its last step (the cost per step grows with the state size).  The table holds
-    consecutive mode counts from 1 (``benchmarks/cost_model.py``)."""
+    factor of its last step, at least 1 (the cost per step grows with the state size; a
+    coefficient measured on a workload also carries its sample's adaptive transients, so two
+    neighbouring mode counts can come out in either order).  The table holds consecutive mode
+    counts from 1 (``benchmarks/cost_model.py``)."""
     top = max(int(k) for k in table)
     if n_modes <= top:
         return float(table[n_modes])
-    growth = float(table[top]) / float(table[top - 1]) if top > 1 else 1.0
+    growth = max(1.0, float(table[top]) / float(table[top - 1])) if top > 1 else 1.0
     return float(table[top]) * growth ** (n_modes - top)
 
 

@@ -60,7 +60,9 @@ def test_the_estimate_scales_with_simulated_time(tmp_path):
 
 def test_the_convergence_runs_are_in_the_estimate(tmp_path):
     """Each refinement adds ``sample`` refined point runs: the windows' doubled periods cost
-    twice a map point, the halved Lyapunov step twice its Lyapunov part, one more mode more."""
+    twice a map point, the halved Lyapunov step twice its Lyapunov part, one more mode a point
+    at that mode count (the measured coefficients decide whether that is more: per nominal
+    period they carry the sample's adaptive transients)."""
     pts = _points([2.0, 3.0, 4.0])
     base = estimate_run(pts, Numerics(), tmp_path)
     mean = base.cpu_seconds / len(pts)
@@ -68,7 +70,10 @@ def test_the_convergence_runs_are_in_the_estimate(tmp_path):
     assert windows.convergence_runs == 2
     assert windows.cpu_seconds - base.cpu_seconds == pytest.approx(2 * 2 * mean)
     modes = estimate_run(pts, Numerics(), tmp_path, convergence=[(pts, ["modes"], 2)])
-    assert modes.cpu_seconds - base.cpu_seconds > 2 * mean
+    more = expand_grid("g", {"axes": {"Omega": [2.0, 3.0, 4.0]}}, MODEL | {"n_modes": 3},
+                       Numerics().result_dict())
+    assert modes.cpu_seconds - base.cpu_seconds == pytest.approx(
+        2 * estimate_run(more, Numerics(), tmp_path).cpu_seconds / len(more))  # at one mode more
     none = estimate_run(pts, Numerics(), tmp_path, convergence=[(pts, [], 2), (pts, ["k_t"], 0)])
     assert none.cpu_seconds == base.cpu_seconds and none.convergence_runs == 0
     many = estimate_run(pts, Numerics(), tmp_path, convergence=[(pts, ["k_t"], 50)])
@@ -121,3 +126,14 @@ def test_a_ten_thousand_point_grid_is_planned_by_a_dry_run_and_refused_without_o
     # the opt-in as the message spells it passes the config schema (Snakemake reads True as a bool)
     opted = snakemake(work, "-n", "regimes", "--config", "allow_long=True")
     assert opted.returncode == 0, opted.stderr[-2000:]
+
+
+def test_extrapolation_above_the_measured_modes_never_falls():
+    """Above the largest measured mode count the coefficient grows by its last step's factor,
+    but never falls (a per-step cost grows with the state; a workload coefficient can come out
+    lower at the next mode count through its sample's transients)."""
+    from analysis.pipeline.cost import _coefficient
+
+    assert _coefficient({1: 1.0, 2: 2.0, 3: 4.0}, 4) == pytest.approx(8.0)
+    assert _coefficient({1: 1.0, 2: 2.0, 3: 1.5}, 5) == pytest.approx(1.5)
+    assert _coefficient({1: 1.0, 2: 2.0, 3: 1.5}, 2) == 2.0
