@@ -22,9 +22,9 @@ HOLD_TARGET = 0.95
 def plot_convergence(runs: pd.DataFrame, summary: pd.DataFrame, grid_name: str, axes: list[str],
                      path: str, dpi: int = 130) -> None:
     """Left: per refinement, the fraction of sampled points whose label holds (bars, with
-    ``held/n``) and the stratum-weighted estimate for the whole map (diamonds), against
-    :data:`HOLD_TARGET`.  Right: one row per sampled point, the map's label and the label under
-    each refinement (a changed label is crossed)."""
+    ``held/n`` and its exact 95 % interval) and the stratum-weighted estimate for the whole map
+    (diamonds), against :data:`HOLD_TARGET`.  Right: one row per sampled point, the map's label
+    and the label under each refinement (a changed label is crossed)."""
     refs = list(summary["refinement"])
     whats = list(summary["what"])
     points = runs.drop_duplicates("point_id")
@@ -32,7 +32,10 @@ def plot_convergence(runs: pd.DataFrame, summary: pd.DataFrame, grid_name: str, 
     fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(11, max(4.0, 1.5 + 0.22 * n_pts)),
                                    gridspec_kw={"width_ratios": [1.0, 1.2]}, constrained_layout=True)
     y = np.arange(len(refs))
-    ax0.barh(y, summary["fraction"], color="0.6", label="sampled points")
+    err = np.vstack([summary["fraction"] - summary["fraction_lo"],
+                     summary["fraction_hi"] - summary["fraction"]])
+    ax0.barh(y, summary["fraction"], xerr=err, color="0.6", ecolor="0.2", capsize=3,
+             label="sampled points (95 % interval)")
     ax0.plot(summary["map_fraction"], y, "D", color="k", ms=5, label="map estimate (stratum weights)")
     for yi, (_, r) in zip(y, summary.iterrows()):
         ax0.text(0.02, yi, f"{r['held']}/{r['n']}", va="center", fontsize=8, color="white")

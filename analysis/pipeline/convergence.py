@@ -40,7 +40,8 @@ from analysis.pipeline.config import Numerics, as_numerics
 from analysis.pipeline.grid import canonical_json, point_id
 
 __all__ = ["ConvergenceSettings", "REFINEMENTS", "convergence_runs", "convergence_summary",
-           "label_text", "refine", "run_metadata", "same_label", "sample_points", "summary_line",
+           "held_interval", "label_text", "refine", "run_metadata", "same_label", "sample_points",
+           "summary_line",
            "write_convergence_table"]
 
 #: refinement name -> what it changes (the figure's and the docs' wording)
@@ -53,6 +54,9 @@ REFINEMENTS = {
 
 #: the least number of sampled points of every label the map has (when it has that many)
 MIN_PER_LABEL = 2
+
+#: confidence level of the interval of the fraction of labels that hold (:func:`held_interval`)
+HELD_CONFIDENCE = 0.95
 
 #: the model's largest Galerkin basis (workflow/schemas/config.schema.yaml, model.n_modes)
 MAX_MODES = 12
@@ -168,14 +172,19 @@ def _quotas(counts: pd.Series, n: int) -> dict:
 def sample_points(table: pd.DataFrame, n: int, seed: int = 0) -> pd.DataFrame:
     """A seeded sample of ``n`` rows of a regime table, stratified by ``label``
     (module docstring), with a ``weight`` column (the stratum's map count over its sample
-    count), in the table's order.  Deterministic: depends on the table's ``point_id`` and
-    ``label`` columns, ``n`` and ``seed`` only."""
+    count), in the table's order.  Deterministic: depends on the table's ``label`` column, the
+    points' grid positions (``index_0``, ``index_1``, ... where the table has them, else
+    ``point_id``), ``n`` and ``seed`` only.  The grid positions do not change with the results
+    version (the ids do), so a new version re-runs the same points wherever its labels are the
+    old ones: its evidence is paired with the old, not a fresh draw."""
     counts = table["label"].value_counts()
     quotas = _quotas(counts, int(n))
     rng = np.random.default_rng(seed)
+    index_cols = sorted((c for c in table.columns if c.startswith("index_")), key=lambda c: int(c[6:]))
+    order = table.sort_values(index_cols or ["point_id"], kind="stable")
     chosen = []
     for lab in sorted(quotas):
-        ids = np.sort(table.loc[table["label"] == lab, "point_id"].to_numpy())
+        ids = order.loc[order["label"] == lab, "point_id"].to_numpy()
         k = quotas[lab]
         if k:
             chosen += [(pid, counts[lab] / k) for pid in rng.choice(ids, size=k, replace=False)]
@@ -264,9 +273,23 @@ def convergence_runs(table: pd.DataFrame, refinement: str, numerics: Numerics | 
 DECIDED = ("periodic", "quasi-periodic", "chaotic")
 
 
+def held_interval(held: int, n: int, level: float = HELD_CONFIDENCE) -> tuple[float, float]:
+    """Exact (Clopper-Pearson) two-sided ``level`` interval of the fraction of points whose
+    label holds, from ``held`` of ``n`` sampled points (``scipy.stats.binomtest``); ``(nan,
+    nan)`` for ``n = 0``.  With 20 points, 19 held give [0.75, 1.00]: a sample this size cannot
+    show a fraction of 95 %, only rule out one far below."""
+    from scipy.stats import binomtest
+
+    if n <= 0:
+        return np.nan, np.nan
+    ci = binomtest(int(held), int(n)).proportion_ci(confidence_level=level, method="exact")
+    return float(ci.low), float(ci.high)
+
+
 def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
     """Per refinement (first-appearance order): ``n`` sampled points, ``held`` (labels equal),
-    ``fraction`` (held / n), ``map_fraction`` (the stratum-weighted estimate for the whole map),
+    ``fraction`` (held / n) with its exact 95 % interval ``fraction_lo``, ``fraction_hi``
+    (:func:`held_interval`), ``map_fraction`` (the stratum-weighted estimate for the whole map),
     ``contradicted`` (both labels a verdict, :data:`DECIDED`, and different: e.g. chaotic ->
     periodic, unlike chaotic -> undetermined) and ``flips`` (``"from -> to: count"``, most
     frequent first)."""
@@ -280,8 +303,10 @@ def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
                            zip(moved["label"], moved["period"], moved["refined_label"],
                                moved["refined_period"])], dtype=object).value_counts()
         flips = flips.sort_index().sort_values(ascending=False, kind="stable")
+        lo, hi = held_interval(int(holds.sum()), len(g))
         rows.append({"refinement": ref, "what": REFINEMENTS.get(ref, ref), "n": len(g),
                      "held": int(holds.sum()), "fraction": float(holds.mean()) if len(g) else np.nan,
+                     "fraction_lo": lo, "fraction_hi": hi,
                      "map_fraction": float((w * holds).sum() / w.sum()) if w.sum() > 0 else np.nan,
                      "contradicted": int((decided & ~holds).sum()),
                      "flips": "; ".join(f"{k}: {v}" for k, v in flips.items())})
@@ -289,11 +314,13 @@ def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def summary_line(summary: pd.DataFrame) -> str:
-    """One line for a map's title: ``labels hold: step / 2 19/20, ...``."""
+    """One line for a map's title: ``labels hold (sampled points; 95 % interval): step / 2
+    19/20 [0.75, 1.00], ...``."""
     if summary is None or summary.empty:
         return "labels not checked under refinement (convergence.sample = 0)"
-    parts = [f"{r['what']} {r['held']}/{r['n']}" for _, r in summary.iterrows()]
-    return "labels hold (sampled points): " + ", ".join(parts)
+    parts = [f"{r['what']} {r['held']}/{r['n']} [{r['fraction_lo']:.2f}, {r['fraction_hi']:.2f}]"
+             for _, r in summary.iterrows()]
+    return "labels hold (sampled points; 95 % interval): " + ", ".join(parts)
 
 
 def run_metadata(grid_name: str, settings: dict, config_hash: str) -> dict:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 import yaml
@@ -18,6 +19,7 @@ from analysis.pipeline.convergence import (
     ConvergenceSettings,
     convergence_runs,
     convergence_summary,
+    held_interval,
     refine,
     same_label,
     sample_points,
@@ -94,6 +96,33 @@ def test_sample_is_stratified_seeded_and_weighted():
     assert len(tight) == 2 and set(tight["label"]) == {"b", "c"}
 
 
+def test_held_interval_is_the_exact_binomial_one():
+    """Clopper-Pearson closed forms: all ``n`` held gives ``[(a/2)^(1/n), 1]``, none held
+    ``[0, 1 - (a/2)^(1/n)]`` (``a = 0.05``); one of two: ``1 - (1 - p)^2 = a/2`` at the lower end,
+so ``[1 - sqrt(1 - a/2), sqrt(1 - a/2)]``; the interval holds
+    its fraction and narrows as the sample grows."""
+    for n in (3, 20, 100):
+        assert held_interval(n, n) == pytest.approx((0.025 ** (1 / n), 1.0))
+        assert held_interval(0, n) == pytest.approx((0.0, 1 - 0.025 ** (1 / n)))
+    assert held_interval(1, 2) == pytest.approx((1 - 0.975 ** 0.5, 0.975 ** 0.5))
+    lo, hi = held_interval(19, 20)
+    assert lo < 0.95 < hi and lo == pytest.approx(0.7513, abs=1e-4)
+    assert np.diff(held_interval(95, 100)) < np.diff(held_interval(19, 20))
+    assert all(np.isnan(held_interval(0, 0)))
+
+
+def test_the_sample_follows_grid_positions_not_ids():
+    """With index columns the draw follows the points' grid positions: new ids (a new results
+    version) give the same points wherever the labels are the same."""
+    t = _table({"periodic": 60, "quasi-periodic": 30, "chaotic": 6})
+    t["index_0"] = np.arange(len(t)) % 12
+    t["index_1"] = np.arange(len(t)) // 12
+    s = sample_points(t, 10, seed=0)
+    renamed = t.assign(point_id=[f"v13-{i:04d}"[::-1] for i in range(len(t))])  # other ids, other order
+    again = sample_points(renamed, 10, seed=0)
+    assert list(again.index) == list(s.index)
+
+
 def test_summary_counts_fractions_and_flips():
     runs = pd.DataFrame({
         "point_id": ["a", "b", "c", "a", "b", "c"],
@@ -112,7 +141,8 @@ def test_summary_counts_fractions_and_flips():
     assert s["map_fraction"].tolist() == pytest.approx([1.0, 0.3])
     assert list(s["contradicted"]) == [0, 2]
     assert s["flips"].iloc[1] == "chaotic -> quasi-periodic: 1; periodic-2 -> chaotic: 1"
-    assert summary_line(s) == "labels hold (sampled points): step / 2 3/3, k_t x 3 1/3"
+    assert summary_line(s) == ("labels hold (sampled points; 95 % interval): step / 2 3/3 [0.29, 1.00], "
+                               "k_t x 3 1/3 [0.01, 0.91]")
     runs.loc[3, "refined_label"] = "undetermined"  # no verdict: a change, not a contradiction
     runs.loc[3, "holds"] = False
     runs.loc[4, "refined_period"] = 3  # period 1 -> 3: the label does not hold
