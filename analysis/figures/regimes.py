@@ -93,7 +93,7 @@ def _title(what: str, grid_name: str, table: pd.DataFrame, axes: list[str], evid
     import textwrap
 
     out = what + "\n" + _fixed_title(grid_name, table, axes)
-    return out + ("\n" + textwrap.fill(evidence, width=90) if evidence else "")
+    return out + ("\n" + textwrap.fill(evidence, width=72) if evidence else "")
 
 
 def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: int = 130,

@@ -315,10 +315,10 @@ def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
 
 def summary_line(summary: pd.DataFrame) -> str:
     """One line for a map's title: ``labels hold (sampled points; 95 % interval): step / 2
-    19/20 [0.75, 1.00], ...``."""
+    19/20 [0.75-1.00], ...`` (no space inside an interval: a wrapped title keeps it whole)."""
     if summary is None or summary.empty:
         return "labels not checked under refinement (convergence.sample = 0)"
-    parts = [f"{r['what']} {r['held']}/{r['n']} [{r['fraction_lo']:.2f}, {r['fraction_hi']:.2f}]"
+    parts = [f"{r['what']} {r['held']}/{r['n']} [{r['fraction_lo']:.2f}-{r['fraction_hi']:.2f}]"
              for _, r in summary.iterrows()]
     return "labels hold (sampled points; 95 % interval): " + ", ".join(parts)
 

@@ -141,8 +141,8 @@ def test_summary_counts_fractions_and_flips():
     assert s["map_fraction"].tolist() == pytest.approx([1.0, 0.3])
     assert list(s["contradicted"]) == [0, 2]
     assert s["flips"].iloc[1] == "chaotic -> quasi-periodic: 1; periodic-2 -> chaotic: 1"
-    assert summary_line(s) == ("labels hold (sampled points; 95 % interval): step / 2 3/3 [0.29, 1.00], "
-                               "k_t x 3 1/3 [0.01, 0.91]")
+    assert summary_line(s) == ("labels hold (sampled points; 95 % interval): step / 2 3/3 [0.29-1.00], "
+                               "k_t x 3 1/3 [0.01-0.91]")
     runs.loc[3, "refined_label"] = "undetermined"  # no verdict: a change, not a contradiction
     runs.loc[3, "holds"] = False
     runs.loc[4, "refined_period"] = 3  # period 1 -> 3: the label does not hold
