@@ -151,9 +151,9 @@ def test_chaotic_point_is_chaotic_for_both_estimators():
     doubles, and on the pipeline's path (``expo`` free copy and ``expo`` ladder) Stefanski's
     verdict is chaotic with its threshold d_s at or above 0.9 of Benettin's value (for a
     non-smooth flow d_s bounds lambda_1 from above, Baumann & Leine 2016; 0.9: the 20-period
-    window's noise).  Measured on one 20-period window: 2.00 against 2.10; the RK4 ladder did not
-    synchronise below its cap there (d_s T = 492 against Benettin's 2.42: docs/lyapunov.md,
-    section 13)."""
+    window's noise).  Measured on one 20-period window: 2.00 against 2.10; the RK4 ladder at the pipeline's
+    step did not synchronise below its cap there (d_s T = 492 against Benettin's 2.42), at half
+    that step it read 1.93 against 1.78 (docs/lyapunov.md, section 13)."""
     pp = prepare_point(**CHAOTIC)
     r = simulate_batch([CHAOTIC], n_transient=60, n_record=16, method="rk4", n_threads=2)[0]
     scale = attractor_scale(r.poincare_state, response_scale(pp), pp.omega)[None]
