@@ -45,8 +45,9 @@ class LyapunovNumerics:
         ``expo`` (the default since results version 13; used where the free copy is ``expo``'s,
         else RK4's: the coupling applied as its own flow at the output grid's step ends, exact
         in the linearised dynamics, :mod:`beamsim.kernels.expo_copies`; 5-10x cheaper, and
-        within 5 % of both integrators' Benettin values where the RK4 ladder reads 10-38 %
-        above them: docs/lyapunov.md, section 13) or ``rk4`` (the RK4 pair on
+        within 5 % of both integrators' Benettin values at three chaotic points where the RK4
+        ladder reads 10 %, 38 % and, at one three-mode point, a factor 200 above them (a step
+        artefact there): docs/lyapunov.md, section 13) or ``rk4`` (the RK4 pair on
         ``step_factor`` everywhere; the default until results version 12).  Labels do not
         read it.  Not part of a point's id when ``expo``.
     expo_e0 : initial (and renormalised) scaled separation of an ``expo`` free copy; ``expo``'s
