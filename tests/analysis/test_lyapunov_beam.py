@@ -181,7 +181,7 @@ def test_rk4_ladder_bounds_benettin_at_a_two_mode_chaotic_point():
     Benettin (>= 0.95 of it: Benettin's window noise) that stays within 1.5 of it.  Issue 4's
     "within 10 %" is checked on the pipeline's default, the ``expo`` ladder
     (tests/beamsim/test_expo_copies.py), over four stretches.  The RK4 ladder's ratio on
-    eight stretches of this point: 1.04-1.16, median 1.10; at a three-mode band point
+    eight stretches of this point: 1.04-1.16, median 1.10; at a two-mode band point
     1.32-1.45 (docs/lyapunov.md, section 13)."""
     pp, starts, scale = stretches(CHAOTIC_2MODES, ())
     T = 2 * math.pi / pp.omega
