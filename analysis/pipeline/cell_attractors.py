@@ -111,10 +111,6 @@ class MultistabilitySettings:
         return (2 * n_axes if self.neighbours else 0) + self.perturbations
 
 
-def _index_columns(table: pd.DataFrame) -> list[str]:
-    return sorted((c for c in table.columns if c.startswith("index_")), key=lambda c: int(c.split("_")[1]))
-
-
 def cell_starts(table: pd.DataFrame, final_states: Mapping[str, Sequence[float]],
                 settings: MultistabilitySettings, axes: Sequence[str],
                 cells: pd.DataFrame | None = None) -> dict[str, list[tuple[str, dict]]]:
@@ -129,9 +125,10 @@ def cell_starts(table: pd.DataFrame, final_states: Mapping[str, Sequence[float]]
 
     from analysis.continuation import state_params
     from analysis.multistability import perturbed_starts
+    from analysis.pipeline.table import index_columns
     from beamsim.simulate import prepare_point
 
-    idx_cols = _index_columns(table)
+    idx_cols = index_columns(table)
     if len(idx_cols) != len(axes):
         raise ValueError(f"cell_starts: {len(axes)} axes but index columns {idx_cols}")
     by_index = {tuple(int(v) for v in row[idx_cols]): row["point_id"] for _, row in table.iterrows()}

@@ -177,11 +177,12 @@ def sample_points(table: pd.DataFrame, n: int, seed: int = 0) -> pd.DataFrame:
     ``point_id``), ``n`` and ``seed`` only.  The grid positions do not change with the results
     version (the ids do), so a new version re-runs the same points wherever its labels are the
     old ones: its evidence is paired with the old, not a fresh draw."""
+    from analysis.pipeline.table import index_columns
+
     counts = table["label"].value_counts()
     quotas = _quotas(counts, int(n))
     rng = np.random.default_rng(seed)
-    index_cols = sorted((c for c in table.columns if c.startswith("index_")), key=lambda c: int(c[6:]))
-    order = table.sort_values(index_cols or ["point_id"], kind="stable")
+    order = table.sort_values(index_columns(table) or ["point_id"], kind="stable")
     chosen = []
     for lab in sorted(quotas):
         ids = order.loc[order["label"] == lab, "point_id"].to_numpy()

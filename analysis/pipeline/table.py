@@ -12,8 +12,8 @@ from analysis.pipeline.atomic import atomic_output
 from analysis.pipeline.grid import canonical_json
 from analysis.pipeline.stages import poincare_array
 
-__all__ = ["TABLE_COLUMNS", "assemble_regime_table", "package_versions", "read_regime_metadata",
-           "write_regime_table"]
+__all__ = ["TABLE_COLUMNS", "assemble_regime_table", "index_columns", "package_versions",
+           "read_regime_metadata", "write_regime_table"]
 
 #: columns of the regime table besides the model parameters (docs/pipeline.md)
 TABLE_COLUMNS = (
@@ -25,6 +25,12 @@ TABLE_COLUMNS = (
     "diverged", "settled", "energy_residual_rel", "lle_stefanski_verdict", "method", "lle_free_copy",
     "reason",
 )
+
+
+def index_columns(table: pd.DataFrame) -> list[str]:
+    """The grid-position columns of a regime table, ``index_0``, ``index_1``, ... in axis order
+    (:func:`assemble_regime_table`)."""
+    return sorted((c for c in table.columns if c.startswith("index_")), key=lambda c: int(c[6:]))
 
 
 def assemble_regime_table(grid_points: Sequence[dict], simulated: pd.DataFrame, lyapunov: pd.DataFrame,
