@@ -1,6 +1,7 @@
 # Stick-slip regime maps of curved two-layer beams.  Rules live in workflow/rules/.
 from snakemake.utils import min_version
 
+from analysis.pipeline.convergence import REFINEMENTS
 from analysis.pipeline.plan import check_config_files
 
 min_version("9.0")
@@ -21,7 +22,7 @@ wildcard_constraints:
     chunk=r"[0-9]{3}",
     stage=r"simulate|lyapunov",
     line=r"[A-Za-z0-9_-]+",  # continuation lines of a grid (grids.<grid>.lines)
-    refinement=r"step|windows|k_t|modes",  # analysis.pipeline.convergence.REFINEMENTS
+    refinement="|".join(REFINEMENTS),  # refinements and load controls of the convergence runs
 
 
 include: "workflow/rules/common.smk"

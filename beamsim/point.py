@@ -26,6 +26,9 @@ __all__ = ["PreparedPoint", "check_point", "prepare_point", "period_steps", "sta
 #: steps per forcing period of the fixed-grid integrators (RK4's follows from its stability)
 DEFAULT_STEPS_PER_PERIOD = {"expo": 64, "newmark": 256}
 
+#: the load of a point that gives neither ``f0`` nor ``f0_rel`` (f0 / f_cr)
+DEFAULT_F0_REL = 2.0
+
 _GEOM_KEYS = tuple(f.name for f in fields(Geometry))
 _FRIC_KEYS = tuple(f.name for f in fields(Friction))
 _LOAD_KEYS = ("f0", "f0_rel", "omega", "lam_f", "Omega")
@@ -131,7 +134,7 @@ def prepare_point(**point) -> PreparedPoint:
     if point.get("f0") is not None:
         f0 = check_nonnegative("f0", point["f0"])
     else:
-        rel = check_nonnegative("f0_rel", point.get("f0_rel", 2.0))
+        rel = check_nonnegative("f0_rel", point.get("f0_rel", DEFAULT_F0_REL))
         if not (math.isfinite(f_cr) and f_cr > 0):
             if rel != 0:
                 raise ValueError("f0_rel needs a positive slip-onset load f_cr (mu_s * p > 0); "

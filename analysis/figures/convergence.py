@@ -14,6 +14,7 @@ from matplotlib.colors import ListedColormap
 from matplotlib.patches import Patch
 
 from analysis.figures.regimes import LABEL_COLOURS, label_key
+from analysis.pipeline.convergence import CONTROLS
 
 #: the fraction of sampled points whose label must hold under every refinement (issue target)
 HOLD_TARGET = 0.95
@@ -22,9 +23,11 @@ HOLD_TARGET = 0.95
 def plot_convergence(runs: pd.DataFrame, summary: pd.DataFrame, grid_name: str, axes: list[str],
                      path: str, dpi: int = 130) -> None:
     """Left: per refinement, the fraction of sampled points whose label holds (bars, with
-    ``held/n`` and its exact 95 % interval) and the stratum-weighted estimate for the whole map
-    (diamonds), against :data:`HOLD_TARGET`.  Right: one row per sampled point, the map's label
-    and the label under each refinement (a changed label is crossed)."""
+    ``held/n`` and its exact 95 % interval; the load controls in a lighter grey), the
+    stratum-weighted estimate for the whole map (diamonds) and, with controls, the fraction
+    among the load-robust points (circles), against :data:`HOLD_TARGET`.  Right: one row per
+    sampled point, the map's label and the label under each refinement (a changed label is
+    crossed)."""
     refs = list(summary["refinement"])
     whats = list(summary["what"])
     points = runs.drop_duplicates("point_id")
@@ -34,18 +37,25 @@ def plot_convergence(runs: pd.DataFrame, summary: pd.DataFrame, grid_name: str, 
     y = np.arange(len(refs))
     err = np.vstack([summary["fraction"] - summary["fraction_lo"],
                      summary["fraction_hi"] - summary["fraction"]])
-    ax0.barh(y, summary["fraction"], xerr=err, color="0.6", ecolor="0.2", capsize=3,
-             label="sampled points (95 % interval)")
+    control = summary["refinement"].isin(CONTROLS).to_numpy()
+    ax0.barh(y, summary["fraction"], xerr=err, color=np.where(control, "0.8", "0.6"), ecolor="0.2",
+             capsize=3, label="sampled points (95 % interval)")
     ax0.plot(summary["map_fraction"], y, "D", color="k", ms=5, label="map estimate (stratum weights)")
-    for yi, (_, r) in zip(y, summary.iterrows()):
-        ax0.text(0.02, yi, f"{r['held']}/{r['n']}", va="center", fontsize=8, color="white")
+    rob = summary[summary["n_robust"].fillna(0) > 0] if "n_robust" in summary else summary.iloc[:0]
+    if len(rob):
+        ax0.plot(rob["held_robust"].astype(float) / rob["n_robust"].astype(float), y[rob.index], "o",
+                 mfc="none", mec="C0", mew=1.5, ms=7,
+                 label=f"the {int(rob['n_robust'].iloc[0])} points whose label holds under the controls")
+    for yi, (_, r), c in zip(y, summary.iterrows(), control):
+        ax0.text(0.02, yi, f"{r['held']}/{r['n']}", va="center", fontsize=8, color="k" if c else "white")
     ax0.axvline(HOLD_TARGET, color="C3", ls="--", lw=1, label=f"target {HOLD_TARGET:.0%}")
-    ax0.set_yticks(y, whats)
+    ax0.set_yticks(y, [f"control: {w}" if c else w for w, c in zip(whats, control)])
     ax0.invert_yaxis()
     ax0.set_xlim(0, 1.0)
     ax0.set_xlabel("fraction of points whose label holds")
     ax0.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2)
-    ax0.set_title(f"grid '{grid_name}': labels under refinement", fontsize=9)
+    ax0.set_title(f"grid '{grid_name}': labels under refinement" + (" and controls" if control.any() else ""),
+                  fontsize=9)
 
     codes = {k: i for i, k in enumerate(LABEL_COLOURS)}
     z = np.full((n_pts, len(refs) + 1), np.nan)

@@ -17,6 +17,16 @@ run share everything else) and sends the refined points through the pipeline's o
   ``stick-slip`` only: the rigid stick has none);
 * ``modes``: one more arch mode in the Galerkin basis.
 
+Two **controls** change the physics instead (:data:`CONTROLS`): ``load_up`` and ``load_down``
+multiply the load amplitude by ``1 + LOAD_SHIFT`` and divide it by it (``f0_rel``, or ``f0``
+where a point gives that).  A label that moves under a 2 % change of the load is finer than
+that in the parameter plane (a narrow window, a locking tongue, the edge of a basin): a
+refinement that perturbs the model as much cannot be expected to keep it.  With controls in
+the runs, :func:`convergence_summary` also counts each refinement's labels that hold among the
+**load-robust** points (those whose label holds under every control), which separates a
+refinement that moves robust labels (the numerics or the model are not converged) from one
+that moves only labels a small change of the load moves too.
+
 The sample (:func:`sample_points`) is stratified by the map's labels: every label present is
 represented (rare ones, such as ``chaotic``, by at least :data:`MIN_PER_LABEL` points when the
 map has them), the rest of the sample is shared in proportion to the labels' counts, and the
@@ -39,10 +49,14 @@ import pandas as pd
 from analysis.pipeline.config import Numerics, as_numerics
 from analysis.pipeline.grid import canonical_json, point_id
 
-__all__ = ["ConvergenceSettings", "REFINEMENTS", "convergence_runs", "convergence_summary",
-           "held_interval", "label_text", "refine", "run_metadata", "same_label", "sample_points",
-           "summary_line",
-           "write_convergence_table"]
+__all__ = ["CONTROLS", "ConvergenceSettings", "LOAD_SHIFT", "REFINEMENTS", "convergence_runs",
+           "convergence_summary", "held_interval", "label_text", "refine", "run_metadata",
+           "same_label", "sample_points", "summary_line", "write_convergence_table"]
+
+#: the relative change of the load amplitude of the controls ``load_up`` / ``load_down``
+#: (the size of the change of ``f_cr``, and so of the load at a given ``f0_rel``, that one more
+#: mode makes on the default beam: 2.1 %, docs/pipeline.md)
+LOAD_SHIFT = 0.02
 
 #: refinement name -> what it changes (the figure's and the docs' wording)
 REFINEMENTS = {
@@ -50,7 +64,12 @@ REFINEMENTS = {
     "windows": "windows x 2",
     "k_t": "k_t x 3",
     "modes": "modes + 1",
+    "load_up": f"load x {1 + LOAD_SHIFT:g}",
+    "load_down": f"load / {1 + LOAD_SHIFT:g}",
 }
+
+#: the entries of :data:`REFINEMENTS` that change the physics (the load), not the numerics
+CONTROLS = ("load_up", "load_down")
 
 #: the least number of sampled points of every label the map has (when it has that many)
 MIN_PER_LABEL = 2
@@ -102,10 +121,10 @@ class ConvergenceSettings:
 
 # ----------------------------------------------------------------------------- refinements
 def refine(refinement: str, params: dict, numerics: Numerics | dict) -> tuple[dict, Numerics]:
-    """The parameters and numerics of ``refinement`` (a key of :data:`REFINEMENTS`) applied to
-    one point; everything else unchanged."""
+    """The parameters and numerics of ``refinement`` (a key of :data:`REFINEMENTS`, a control
+    among them) applied to one point; everything else unchanged."""
     from analysis.pipeline.stages import integrator
-    from beamsim.point import DEFAULT_STEPS_PER_PERIOD
+    from beamsim.point import DEFAULT_F0_REL, DEFAULT_STEPS_PER_PERIOD
     from beamsim.two_layer import Geometry
 
     nm = as_numerics(numerics)
@@ -138,6 +157,12 @@ def refine(refinement: str, params: dict, numerics: Numerics | dict) -> tuple[di
             raise ValueError(f"convergence.refinements: 'modes' needs n_modes + 1 <= {MAX_MODES}, "
                              f"a point has n_modes = {n}")
         p["n_modes"] = n + 1
+    elif refinement in CONTROLS:
+        factor = 1.0 + LOAD_SHIFT if refinement == "load_up" else 1.0 / (1.0 + LOAD_SHIFT)
+        if p.get("f0") is not None:
+            p["f0"] = factor * float(p["f0"])
+        else:
+            p["f0_rel"] = factor * float(p.get("f0_rel", DEFAULT_F0_REL))
     else:
         raise ValueError(f"unknown refinement {refinement!r}; allowed: {', '.join(REFINEMENTS)}")
     return p, nm
@@ -292,8 +317,12 @@ def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
     ``fraction`` (held / n) with its exact 95 % interval ``fraction_lo``, ``fraction_hi``
     (:func:`held_interval`), ``map_fraction`` (the stratum-weighted estimate for the whole map),
     ``contradicted`` (both labels a verdict, :data:`DECIDED`, and different: e.g. chaotic ->
-    periodic, unlike chaotic -> undetermined) and ``flips`` (``"from -> to: count"``, most
-    frequent first)."""
+    periodic, unlike chaotic -> undetermined), ``flips`` (``"from -> to: count"``, most
+    frequent first) and, when ``runs`` has :data:`CONTROLS`, for every refinement that is not
+    one: ``n_robust`` (sampled points whose label holds under every control: load-robust) and
+    ``held_robust`` (of those, the labels that hold under this refinement); NA otherwise."""
+    controls = runs[runs["refinement"].isin(CONTROLS)]
+    robust = controls.groupby("point_id")["holds"].all() if len(controls) else None
     rows = []
     for ref, g in runs.groupby("refinement", sort=False):
         w = g["weight"].to_numpy(float)
@@ -305,23 +334,40 @@ def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
                                moved["refined_period"])], dtype=object).value_counts()
         flips = flips.sort_index().sort_values(ascending=False, kind="stable")
         lo, hi = held_interval(int(holds.sum()), len(g))
+        n_robust = held_robust = pd.NA
+        if robust is not None and ref not in CONTROLS:
+            is_robust = g["point_id"].map(robust).fillna(False).to_numpy(bool)
+            n_robust, held_robust = int(is_robust.sum()), int((holds & is_robust).sum())
         rows.append({"refinement": ref, "what": REFINEMENTS.get(ref, ref), "n": len(g),
                      "held": int(holds.sum()), "fraction": float(holds.mean()) if len(g) else np.nan,
                      "fraction_lo": lo, "fraction_hi": hi,
                      "map_fraction": float((w * holds).sum() / w.sum()) if w.sum() > 0 else np.nan,
                      "contradicted": int((decided & ~holds).sum()),
-                     "flips": "; ".join(f"{k}: {v}" for k, v in flips.items())})
-    return pd.DataFrame(rows)
+                     "flips": "; ".join(f"{k}: {v}" for k, v in flips.items()),
+                     "n_robust": n_robust, "held_robust": held_robust})
+    out = pd.DataFrame(rows)
+    for c in ("n_robust", "held_robust"):
+        out[c] = out[c].astype("Int64")
+    return out
 
 
 def summary_line(summary: pd.DataFrame) -> str:
     """One line for a map's title: ``labels hold (sampled points; 95 % interval): step / 2
-    19/20 [0.75-1.00], ...`` (no space inside an interval: a wrapped title keeps it whole)."""
+    19/20 [0.75-1.00], ...`` (no space inside an interval: a wrapped title keeps it whole),
+    followed, when the summary has controls, by ``; of the 9/20 whose label holds under the
+    load controls: step / 2 9/9, ...``."""
     if summary is None or summary.empty:
         return "labels not checked under refinement (convergence.sample = 0)"
     parts = [f"{r['what']} {r['held']}/{r['n']} [{r['fraction_lo']:.2f}-{r['fraction_hi']:.2f}]"
              for _, r in summary.iterrows()]
-    return "labels hold (sampled points; 95 % interval): " + ", ".join(parts)
+    line = "labels hold (sampled points; 95 % interval): " + ", ".join(parts)
+    rob = summary[summary["n_robust"].notna()] if "n_robust" in summary else summary.iloc[:0]
+    if len(rob):
+        n_rob = int(rob["n_robust"].iloc[0])
+        line += (f"; of the {n_rob}/{int(rob['n'].iloc[0])} whose label holds under the load "
+                 "controls: " + ", ".join(f"{r['what']} {int(r['held_robust'])}/{n_rob}"
+                                          for _, r in rob.iterrows()))
+    return line
 
 
 def run_metadata(grid_name: str, settings: dict, config_hash: str) -> dict:

@@ -54,6 +54,14 @@ def test_each_refinement_changes_its_knob_only():
     assert p == POINT | {"k_t": 30.0} and r == nm
     p, r = refine("modes", POINT, nm)
     assert p == POINT | {"n_modes": 3} and r == nm
+    p, r = refine("load_up", POINT, nm)  # the controls: the load, not the numerics
+    assert p == POINT | {"f0_rel": pytest.approx(0.3 * 1.02)} and r == nm
+    p, r = refine("load_down", POINT, nm)
+    assert p == POINT | {"f0_rel": pytest.approx(0.3 / 1.02)} and r == nm
+    absolute = {k: v for k, v in POINT.items() if k != "f0_rel"} | {"f0": 4e-7, "f0_rel": None}
+    assert refine("load_up", absolute, nm)[0] == absolute | {"f0": pytest.approx(4e-7 * 1.02)}
+    unloaded = {k: v for k, v in POINT.items() if k != "f0_rel"}  # prepare_point's default 2
+    assert refine("load_down", unloaded, nm)[0] == unloaded | {"f0_rel": pytest.approx(2 / 1.02)}
     assert POINT["n_modes"] == 2 and POINT["k_t"] == 10.0  # the input is not modified
     with pytest.raises(ValueError, match="n_modes"):
         refine("modes", POINT | {"n_modes": 12}, nm)
@@ -154,6 +162,24 @@ def test_summary_counts_fractions_and_flips():
     assert same_label("chaotic", None, "chaotic", pd.NA)
     assert not same_label("chaotic", None, "undetermined", None)
     assert "not checked" in summary_line(None)
+
+
+def test_summary_counts_the_labels_that_hold_among_the_load_robust_points():
+    """Four points: a and b keep their labels under both load controls (load-robust), c moves
+    under one and d under the other.  k_t moves a, c and d: of the 2 robust points 1 holds; the
+    controls' own rows and a summary without controls have no robust counts."""
+    refs = ["k_t", "load_up", "load_down"]
+    moved = {"k_t": "acd", "load_up": "c", "load_down": "d"}
+    runs = pd.DataFrame([{"point_id": p, "refinement": ref, "weight": 1.0, "label": "periodic",
+                          "period": 1, "refined_label": "chaotic" if p in moved[ref] else "periodic",
+                          "refined_period": None if p in moved[ref] else 1, "holds": p not in moved[ref]}
+                         for ref in refs for p in "abcd"])
+    s = convergence_summary(runs)
+    assert list(s["held"]) == [1, 3, 3]
+    assert s["n_robust"].tolist() == [2, pd.NA, pd.NA] and s["held_robust"].tolist() == [1, pd.NA, pd.NA]
+    assert summary_line(s).endswith("; of the 2/4 whose label holds under the load controls: k_t x 3 1/2")
+    alone = convergence_summary(runs[runs["refinement"] == "k_t"])
+    assert alone["n_robust"].isna().all() and "load controls" not in summary_line(alone)
 
 
 def test_settings_defaults_are_the_shipped_config_and_bad_values_are_refused():
