@@ -18,29 +18,42 @@ import numpy as np
 import pandas as pd
 
 from analysis.attractors import group_records
+from analysis.lyapunov.beam import SLOW_MODES
 from analysis.pipeline.config import Numerics, as_numerics
 
 __all__ = ["perturbed_starts", "point_attractors"]
 
 
 def perturbed_starts(params: dict, n: int, *, seed: int | Sequence[int] = 0,
-                     amplitude: float = 1.0) -> list[dict]:
-    """``n`` seeded initial states of a point: generalised coordinates and velocities drawn
-    from a normal distribution of ``amplitude`` times the forced-response scale
-    (:func:`analysis.lyapunov.beam.response_scale`; velocities times ``omega``), Jenkins slips
-    zero, every element stuck.  ``seed``: an integer or a sequence of integers (numpy's
+                     amplitude: float = 1.0, n_slow: int = SLOW_MODES) -> list[dict]:
+    """``n`` seeded initial states of a point, in the ``n_slow`` slowest modes of the stuck
+    structure (:attr:`beamsim.two_layer.TwoLayerModel.eig_stuck`, eigenvector signs fixed):
+    modal displacements and velocities drawn from a standard normal distribution, the
+    displacement scaled to ``amplitude`` times the size of the forced-response scale
+    (:func:`analysis.lyapunov.beam.response_scale`, Euclidean norm over the coordinates) times
+    ``|a| / sqrt(n_slow)`` (``a`` the drawn amplitudes: the size is random as well), the
+    velocity likewise with ``omega`` times that scale; Jenkins slips zero, every element stuck.
+    The fast interface-penalty and membrane modes are not excited: a perturbation drawn in
+    every coordinate puts energy into them, which the undamped structure keeps, and ``expo``
+    then pays for their oscillation at every event check (10-35 times the cost of the start
+    from rest, docs/pipeline.md).  ``seed``: an integer or a sequence of integers (numpy's
     ``default_rng``; e.g. a config seed and a grid index).  Returns dicts of ``q0``, ``v0`` to
     merge into the parameters."""
-    from analysis.lyapunov.beam import response_scale
+    from analysis.lyapunov.beam import response_scale, slow_modes
     from beamsim.simulate import prepare_point
 
     pp = prepare_point(**params)
-    ref = np.abs(response_scale(pp))
+    size = float(np.linalg.norm(response_scale(pp)))
+    phi = slow_modes(pp.model, n_slow)
+    k = phi.shape[1]
     rng = np.random.default_rng(seed)
     out = []
     for _ in range(int(n)):
-        out.append({"q0": amplitude * ref * rng.standard_normal(ref.size),
-                    "v0": amplitude * pp.omega * ref * rng.standard_normal(ref.size)})
+        a, b = rng.standard_normal(k), rng.standard_normal(k)
+        q, v = phi @ a, phi @ b
+        scale = amplitude * size / np.sqrt(k)
+        out.append({"q0": scale * np.linalg.norm(a) * q / np.linalg.norm(q),
+                    "v0": scale * pp.omega * np.linalg.norm(b) * v / np.linalg.norm(v)})
     return out
 
 

@@ -97,7 +97,23 @@ def response_scale(prepared) -> np.ndarray:
     return 2.0 * prepared.f0 * u if prepared.f0 > 0 else u
 
 
-def initial_offset(prepared, scale: np.ndarray, e0: float, seed: int = 0, n_slow: int = 4) -> np.ndarray:
+#: the slowest modes of the stuck structure that perturbations are drawn in (:func:`initial_offset`,
+#: :func:`analysis.multistability.perturbed_starts`)
+SLOW_MODES = 4
+
+
+def slow_modes(model, n_slow: int = SLOW_MODES) -> np.ndarray:
+    """The ``min(n_slow, n)`` slowest mode shapes of the stuck structure, ``(n, k)`` columns
+    (``model.eig_stuck``), each with its largest entry positive: LAPACK's eigenvector signs
+    depend on the threading, and a perturbation built from them must be the same on any
+    machine setting."""
+    _, phi = model.eig_stuck
+    k = max(1, min(int(n_slow), model.n))
+    return phi[:, :k] * np.sign(phi[np.argmax(np.abs(phi[:, :k]), axis=0), np.arange(k)])
+
+
+def initial_offset(prepared, scale: np.ndarray, e0: float, seed: int = 0,
+                   n_slow: int = SLOW_MODES) -> np.ndarray:
     """Offset ``y - x`` on ``(q, v, z)`` with scaled RMS ``e0`` in a fixed pseudo-random
     direction within the ``n_slow`` slowest modes of the stuck structure (coordinates and
     velocities), so that the perturbation does not start in the stiff interface (penalty)
@@ -105,11 +121,9 @@ def initial_offset(prepared, scale: np.ndarray, e0: float, seed: int = 0, n_slow
     perturbed."""
     model = prepared.model
     n, nq = model.n, model.n_quad
-    lam, phi = model.eig_stuck
-    k = max(1, min(int(n_slow), n))
-    # eigenvector signs are arbitrary (LAPACK's depend on the threading): fix them, so the
-    # direction -- and every result -- is the same on any machine setting
-    phi = phi[:, :k] * np.sign(phi[np.argmax(np.abs(phi[:, :k]), axis=0), np.arange(k)])
+    lam = model.eig_stuck[0]
+    phi = slow_modes(model, n_slow)
+    k = phi.shape[1]
     u = perturbation(2 * k, seed)
     om = np.sqrt(np.maximum(lam[:k], 0.0))
     dq = phi @ u[:k]
