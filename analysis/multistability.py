@@ -31,12 +31,12 @@ def perturbed_starts(params: dict, n: int, *, seed: int | Sequence[int] = 0,
     modal displacements and velocities drawn from a standard normal distribution, the
     displacement scaled to ``amplitude`` times the size of the forced-response scale
     (:func:`analysis.lyapunov.beam.response_scale`, Euclidean norm over the coordinates) times
-    ``|a| / sqrt(n_slow)`` (``a`` the drawn amplitudes: the size is random as well), the
-    velocity likewise with ``omega`` times that scale; Jenkins slips zero, every element stuck.
-    The fast interface-penalty and membrane modes are not excited: a perturbation drawn in
-    every coordinate puts energy into them, which the undamped structure keeps, and ``expo``
-    then pays for their oscillation at every event check (10-35 times the cost of the start
-    from rest, docs/pipeline.md).  ``seed``: an integer or a sequence of integers (numpy's
+    ``|a| / sqrt(k)`` (``a`` the ``k = min(n_slow, n)`` drawn amplitudes: the size is random as
+    well), the velocity likewise with ``omega`` times that scale; Jenkins slips zero, every
+    element stuck.  The fast interface-penalty and membrane modes are not excited: a
+    perturbation drawn in every coordinate puts energy into them, which the undamped structure
+    keeps, and ``expo`` then pays for their oscillation at every event check (measured in
+    docs/pipeline.md, "Multistability of a map").  ``seed``: an integer or a sequence of integers (numpy's
     ``default_rng``; e.g. a config seed and a grid index).  Returns dicts of ``q0``, ``v0`` to
     merge into the parameters."""
     from analysis.lyapunov.beam import response_scale, slow_modes
