@@ -106,9 +106,9 @@ def test_sample_is_stratified_seeded_and_weighted():
 
 def test_held_interval_is_the_exact_binomial_one():
     """Clopper-Pearson closed forms: all ``n`` held gives ``[(a/2)^(1/n), 1]``, none held
-    ``[0, 1 - (a/2)^(1/n)]`` (``a = 0.05``); one of two: ``1 - (1 - p)^2 = a/2`` at the lower end,
-so ``[1 - sqrt(1 - a/2), sqrt(1 - a/2)]``; the interval holds
-    its fraction and narrows as the sample grows."""
+    ``[0, 1 - (a/2)^(1/n)]`` (``a = 0.05``); one of two: ``1 - (1 - p)^2 = a/2`` at the lower
+    end, so ``[1 - sqrt(1 - a/2), sqrt(1 - a/2)]``; the interval holds its fraction and narrows
+    as the sample grows."""
     for n in (3, 20, 100):
         assert held_interval(n, n) == pytest.approx((0.025 ** (1 / n), 1.0))
         assert held_interval(0, n) == pytest.approx((0.0, 1 - 0.025 ** (1 / n)))

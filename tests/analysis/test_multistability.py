@@ -48,7 +48,7 @@ def test_perturbed_starts_are_seeded_and_stay_in_the_slow_modes():
     assert all(np.array_equal(x["q0"], y["q0"]) and np.array_equal(x["v0"], y["v0"])
                for x, y in zip(starts, again))
     model = prepare_point(**CELL).model
-    lam, phi = model.eig_stuck
+    _, phi = model.eig_stuck
     slow = slow_modes(model)
     k = slow.shape[1]
     for s in starts:
