@@ -2,9 +2,13 @@
 from snakemake.utils import min_version
 
 from analysis.pipeline.convergence import REFINEMENTS
+from analysis.pipeline.local_cores import hold_local_cores
 from analysis.pipeline.plan import check_config_files
 
 min_version("9.0")
+
+# Snakemake >= 9.10 lets jobs exceed --cores after a job that ran alone (snakemake#3913)
+hold_local_cores()
 
 
 # each config file a YAML mapping, no key twice (one-line errors; Snakemake's loader is silent)
