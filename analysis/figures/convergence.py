@@ -25,7 +25,8 @@ def plot_convergence(runs: pd.DataFrame, summary: pd.DataFrame, grid_name: str, 
     """Left: per refinement, the fraction of sampled points whose label holds (bars, with
     ``held/n`` and its exact 95 % interval; the load controls in a lighter grey), the
     stratum-weighted estimate for the whole map (diamonds) and, with controls, the fraction
-    among the load-robust points (circles), against :data:`HOLD_TARGET`.  Right: one row per
+    among the load-robust points (circles) and, with the neighbour support, among the points
+    whose label a grid neighbour shares (squares), against :data:`HOLD_TARGET`.  Right: one row per
     sampled point, the map's label and the label under each refinement (a changed label is
     crossed)."""
     refs = list(summary["refinement"])
@@ -46,6 +47,11 @@ def plot_convergence(runs: pd.DataFrame, summary: pd.DataFrame, grid_name: str, 
         ax0.plot(rob["held_robust"].astype(float) / rob["n_robust"].astype(float), y[rob.index], "o",
                  mfc="none", mec="C0", mew=1.5, ms=7,
                  label=f"the {int(rob['n_robust'].iloc[0])} points whose label holds under the controls")
+    sup = summary[summary["n_supported"].fillna(0) > 0] if "n_supported" in summary else summary.iloc[:0]
+    if len(sup):
+        ax0.plot(sup["held_supported"].astype(float) / sup["n_supported"].astype(float), y[sup.index], "s",
+                 mfc="none", mec="C2", mew=1.5, ms=6,
+                 label=f"the {int(sup['n_supported'].iloc[0])} points whose label a grid neighbour shares")
     for yi, (_, r), c in zip(y, summary.iterrows(), control):
         ax0.text(0.02, yi, f"{r['held']}/{r['n']}", va="center", fontsize=8, color="k" if c else "white")
     ax0.axvline(HOLD_TARGET, color="C3", ls="--", lw=1, label=f"target {HOLD_TARGET:.0%}")

@@ -104,7 +104,8 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
     on a 2-D map the cells run from other starts are outlined, multistable ones hatched (``//``),
     those with attractors of two regimes (two different verdicts) cross-hatched (``xx``); on a
     1-D diagram the tip samples of the attractors the start from rest did not reach are drawn
-    as open circles in their own label's colour."""
+    as open circles in their own label's colour.  On a 2-D map a black dot marks a cell whose
+    label no grid neighbour shares (:mod:`analysis.pipeline.neighbours`)."""
     axes = list(grid["axes"])
     keys = table.apply(_label_key, axis=1)
     present = [k for k in LABEL_COLOURS if (keys == k).any()]
@@ -126,6 +127,11 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
             for _, row in table[~table["slipped"].astype(bool)].iterrows():
                 ax.plot(row[xa], row[ya], marker="x", ms=3, color="white", mew=0.6)
             handles.append(plt.Line2D([], [], marker="x", ls="", color="0.3", label="never slipped (stuck)"))
+        if "neighbours_same" in table.columns:  # labels finer than the grid
+            alone = table[(table["neighbours_same"] == 0) & (table["n_neighbours"] > 0)]
+            ax.plot(alone[xa], alone[ya], "o", ms=2.5, color="black", ls="")
+            handles.append(plt.Line2D([], [], marker="o", ms=2.5, ls="", color="black",
+                                      label=f"label no neighbour shares ({len(alone)})"))
         for name, setter in ((xa, ax.set_xscale), (ya, ax.set_yscale)):
             if _is_log(grid, name):
                 setter("log")

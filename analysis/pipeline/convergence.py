@@ -245,14 +245,18 @@ def convergence_runs(table: pd.DataFrame, refinement: str, numerics: Numerics | 
     """Re-run the sample of a regime table under one refinement.
 
     Returns one row per sampled point (the table's order): ``point_id`` (the map's),
-    ``refinement``, the ``axes`` values, ``weight``, ``label``/``period``/``lle_T``/``lle_lo_T``/
+    ``refinement``, the ``axes`` values, ``weight``, ``supported`` (a grid neighbour shares
+    the map's label: :func:`analysis.pipeline.neighbours.supported`; NA for a table without the
+    neighbour columns), ``label``/``period``/``lle_T``/``lle_lo_T``/
     ``lle_hi_T`` of the map and ``refined_*`` of the refined run (``lambda_1 T`` per forcing
     period; NaN where not measured), ``refined_reason``, ``refined_point_id`` and ``holds``
     (:func:`same_label`: the same regime and, for a periodic orbit, the same period).
     """
+    from analysis.pipeline.neighbours import supported
     from analysis.pipeline.stages import classify_points, lle_resolution, lyapunov_points, simulate_points
 
     sample = sample_points(table, settings.sample, settings.seed)
+    base_support = supported(sample)
     refined = []
     for _, row in sample.iterrows():
         params, nm = refine(refinement, json.loads(row["params_json"]), numerics)
@@ -278,7 +282,7 @@ def convergence_runs(table: pd.DataFrame, refinement: str, numerics: Numerics | 
         t_base, t_ref = 2.0 * np.pi / float(base["omega"]), 2.0 * np.pi / float(m["omega"])
         row = {"point_id": base["point_id"], "refinement": refinement}
         row |= {a: base[a] for a in axes}
-        row |= {"weight": float(base["weight"]),
+        row |= {"weight": float(base["weight"]), "supported": base_support[base.name],
                 "label": base["label"], "period": base["period"],
                 "lle_T": _num(base["lle_mean"]) * t_base, "lle_lo_T": _num(base["lle_lo"]) * t_base,
                 "lle_hi_T": _num(base["lle_hi"]) * t_base,
@@ -292,6 +296,7 @@ def convergence_runs(table: pd.DataFrame, refinement: str, numerics: Numerics | 
     out = pd.DataFrame(rows)
     for c in ("period", "refined_period"):
         out[c] = out[c].astype("Int64")
+    out["supported"] = out["supported"].astype("boolean")
     return out
 
 
@@ -320,7 +325,10 @@ def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
     periodic, unlike chaotic -> undetermined), ``flips`` (``"from -> to: count"``, most
     frequent first) and, when ``runs`` has :data:`CONTROLS`, for every refinement that is not
     one: ``n_robust`` (sampled points whose label holds under every control: load-robust) and
-    ``held_robust`` (of those, the labels that hold under this refinement); NA otherwise."""
+    ``held_robust`` (of those, the labels that hold under this refinement); NA otherwise; and
+    for every refinement, when ``runs`` has the column ``supported``, ``n_supported`` (sampled
+    points whose label a grid neighbour shares) and ``held_supported`` (of those, the labels
+    that hold); NA otherwise."""
     controls = runs[runs["refinement"].isin(CONTROLS)]
     robust = controls.groupby("point_id")["holds"].all() if len(controls) else None
     rows = []
@@ -338,15 +346,20 @@ def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
         if robust is not None and ref not in CONTROLS:
             is_robust = g["point_id"].map(robust).fillna(False).to_numpy(bool)
             n_robust, held_robust = int(is_robust.sum()), int((holds & is_robust).sum())
+        n_sup = held_sup = pd.NA
+        if "supported" in g and g["supported"].notna().any():
+            sup = g["supported"].fillna(False).to_numpy(bool)
+            n_sup, held_sup = int(sup.sum()), int((holds & sup).sum())
         rows.append({"refinement": ref, "what": REFINEMENTS.get(ref, ref), "n": len(g),
                      "held": int(holds.sum()), "fraction": float(holds.mean()) if len(g) else np.nan,
                      "fraction_lo": lo, "fraction_hi": hi,
                      "map_fraction": float((w * holds).sum() / w.sum()) if w.sum() > 0 else np.nan,
                      "contradicted": int((decided & ~holds).sum()),
                      "flips": "; ".join(f"{k}: {v}" for k, v in flips.items()),
-                     "n_robust": n_robust, "held_robust": held_robust})
+                     "n_robust": n_robust, "held_robust": held_robust,
+                     "n_supported": n_sup, "held_supported": held_sup})
     out = pd.DataFrame(rows)
-    for c in ("n_robust", "held_robust"):
+    for c in ("n_robust", "held_robust", "n_supported", "held_supported"):
         out[c] = out[c].astype("Int64")
     return out
 
@@ -355,7 +368,8 @@ def summary_line(summary: pd.DataFrame) -> str:
     """One line for a map's title: ``labels hold (sampled points; 95 % interval): step / 2
     19/20 [0.75-1.00], ...`` (no space inside an interval: a wrapped title keeps it whole),
     followed, when the summary has controls, by ``; of the 9/20 whose label holds under the
-    load controls: step / 2 9/9, ...``."""
+    load controls: step / 2 9/9, ...`` and, when it has the neighbour support, by ``; of the
+    12/20 whose label a grid neighbour shares: step / 2 12/12, ...``."""
     if summary is None or summary.empty:
         return "labels not checked under refinement (convergence.sample = 0)"
     parts = [f"{r['what']} {r['held']}/{r['n']} [{r['fraction_lo']:.2f}-{r['fraction_hi']:.2f}]"
@@ -367,6 +381,12 @@ def summary_line(summary: pd.DataFrame) -> str:
         line += (f"; of the {n_rob}/{int(rob['n'].iloc[0])} whose label holds under the load "
                  "controls: " + ", ".join(f"{r['what']} {int(r['held_robust'])}/{n_rob}"
                                           for _, r in rob.iterrows()))
+    sup = summary[summary["n_supported"].notna()] if "n_supported" in summary else summary.iloc[:0]
+    if len(sup):
+        n_sup = int(sup["n_supported"].iloc[0])
+        line += (f"; of the {n_sup}/{int(sup['n'].iloc[0])} whose label a grid neighbour shares: "
+                 + ", ".join(f"{r['what']} {int(r['held_supported'])}/{n_sup}"
+                             for _, r in sup.iterrows()))
     return line
 
 

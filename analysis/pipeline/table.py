@@ -10,6 +10,7 @@ import pandas as pd
 
 from analysis.pipeline.atomic import atomic_output
 from analysis.pipeline.grid import canonical_json
+from analysis.pipeline.neighbours import neighbour_support
 from analysis.pipeline.stages import poincare_array
 
 __all__ = ["TABLE_COLUMNS", "assemble_regime_table", "index_columns", "package_versions",
@@ -35,7 +36,9 @@ def index_columns(table: pd.DataFrame) -> list[str]:
 
 def assemble_regime_table(grid_points: Sequence[dict], simulated: pd.DataFrame, lyapunov: pd.DataFrame,
                           classified: pd.DataFrame) -> pd.DataFrame:
-    """Stage 4: one row per grid point in grid order (first axis slowest), parameters first."""
+    """Stage 4: one row per grid point in grid order (first axis slowest), parameters first;
+    last the neighbour support of each label (``n_neighbours``, ``neighbours_same``:
+    :func:`analysis.pipeline.neighbours.neighbour_support`)."""
     by_id = (classified.merge(lyapunov, on="point_id", how="left", suffixes=("", "_lle"))
              .merge(simulated, on="point_id", how="left", suffixes=("", "_sim"))
              .set_index("point_id"))
@@ -53,7 +56,8 @@ def assemble_regime_table(grid_points: Sequence[dict], simulated: pd.DataFrame, 
         rows.append(row)
     table = pd.DataFrame(rows)
     table["period"] = table["period"].astype("Int64")
-    return table
+    # how many grid neighbours share each label (analysis.pipeline.neighbours)
+    return table.join(neighbour_support(table))
 
 
 def package_versions() -> dict:

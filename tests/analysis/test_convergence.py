@@ -229,3 +229,43 @@ def test_a_linear_point_keeps_its_label_under_every_refinement(tmp_path):
         assert r["refined_point_id"] != r["point_id"]
         assert json.loads(table["params_json"].iloc[0]) == point  # the map's point is untouched
     assert canonical_json(point) == table["params_json"].iloc[0]
+
+
+def test_neighbour_support_counts_axis_neighbours_with_the_same_label():
+    """A 3 x 3 grid, computed by hand: the centre is chaotic in a periodic-1 map but for its
+    right neighbour, which is chaotic too; the corner (2, 2) is periodic-2, which no neighbour
+    shares (its neighbours are periodic-1); a missing cell has no neighbour row."""
+    from analysis.pipeline.neighbours import neighbour_support, supported
+
+    label = {(1, 1): ("chaotic", None), (1, 2): ("chaotic", None), (2, 2): ("periodic", 2)}
+    rows = [{"index_0": i, "index_1": j, "point_id": f"{i}{j}",
+             "label": label.get((i, j), ("periodic", 1))[0], "period": label.get((i, j), ("periodic", 1))[1]}
+            for i in range(3) for j in range(3) if (i, j) != (0, 0)]
+    t = pd.DataFrame(rows)
+    t["period"] = t["period"].astype("Int64")
+    s = t.join(neighbour_support(t)).set_index("point_id")
+    assert s.loc["11", ["n_neighbours", "neighbours_same"]].tolist() == [4, 1]
+    assert s.loc["12", ["n_neighbours", "neighbours_same"]].tolist() == [3, 1]
+    assert s.loc["22", ["n_neighbours", "neighbours_same"]].tolist() == [2, 0]   # period 2 among period 1
+    assert s.loc["01", ["n_neighbours", "neighbours_same"]].tolist() == [2, 1]   # (0, 0) is missing
+    assert s.loc["21", ["n_neighbours", "neighbours_same"]].tolist() == [3, 1]  # only (2, 0) agrees
+    sup = supported(s)
+    assert not sup["22"] and sup["11"] and sup.sum() == 7
+    one = t.iloc[:1].drop(columns=["index_0", "index_1"])
+    assert neighbour_support(one).iloc[0].tolist() == [0, 0] and supported(one).isna().all()
+
+
+def test_summary_counts_the_labels_that_hold_among_the_supported_points():
+    """Three points, a and b with a grid neighbour sharing the label, c without: k_t moves b and
+    c, so 1 of the 2 supported labels holds; the title line says so; without the column there
+    are no counts."""
+    runs = pd.DataFrame([{"point_id": p, "refinement": "k_t", "weight": 1.0, "label": "periodic",
+                          "period": 1, "supported": p != "c",
+                          "refined_label": "periodic" if p == "a" else "chaotic",
+                          "refined_period": 1 if p == "a" else None, "holds": p == "a"} for p in "abc"])
+    runs["supported"] = runs["supported"].astype("boolean")
+    s = convergence_summary(runs)
+    assert s["n_supported"].tolist() == [2] and s["held_supported"].tolist() == [1]
+    assert summary_line(s).endswith("; of the 2/3 whose label a grid neighbour shares: k_t x 3 1/2")
+    bare = convergence_summary(runs.drop(columns="supported"))
+    assert bare["n_supported"].isna().all() and "neighbour" not in summary_line(bare)

@@ -14,8 +14,12 @@ integrator, its switches located within fixed steps) reads a negative exponent t
 the counters (``SimResult.n_zeno``, ``run_copies(zeno_out=...)``) see the guard there and not at a
 ``mu_s > mu_k`` point; ``beam_lle`` and the simulate stage then give exactly the RK4 values and
 record the fallback. With the shipped dashpot the ``expo`` pair met the guard too until results
-version 12 (docs/performance.md, section "Cheaper expo intervals"); it now reads RK4's
-exponent, which the first test checks."""
+version 12 (docs/performance.md, section "Cheaper expo intervals"); since then it reads RK4's
+exponent on a host without AVX-512, while on an AVX-512 host its copy still meets the guard
+(2026-11-26): whether a grazing reversal chatters depends on the last bits. So at the damped
+``mu_s = mu_k`` point the tests accept either outcome, provided it is counted and the pipeline
+falls back on it (the pipeline's own rule runs RK4 copies at ``mu_s = mu_k`` anyway,
+``analysis.pipeline.stages.free_copy_integrator``); at ``mu_s > mu_k`` no guard is allowed."""
 
 from __future__ import annotations
 
@@ -68,10 +72,11 @@ def test_the_reference_run_counts_the_guard():
 def test_the_copies_count_the_guard_and_their_reading_is_then_wrong(settled):
     """The undamped point's ``expo`` pair: its copy meets the guard and its separation then
     grows by more than 5 per period on a stable orbit, where the RK4 pair reads a negative
-    exponent; at ``mu_s > mu_k`` and at the damped ``mu_s = mu_k`` point no row meets the guard,
-    and the ``expo`` pair reads the RK4 pair's exponent. ``zeno_out`` is zero for an RK4 run."""
+    exponent; at ``mu_s > mu_k`` no row meets the guard and the ``expo`` pair reads the RK4
+    pair's exponent, as it does at the damped ``mu_s = mu_k`` point where its copy does not meet
+    the guard (module docstring: that depends on the CPU). ``zeno_out`` is zero for an RK4 run."""
     res, prepared, scales = settled
-    rates = {}
+    rates, guarded = {}, {}
     for k, (r, pp, sc) in enumerate(zip(res, prepared, scales)):
         for method, e0 in (("expo", 1e-4), ("rk4", 1e-6)):
             off = initial_offset(pp, sc, e0, 0)[None, None]
@@ -80,14 +85,19 @@ def test_the_copies_count_the_guard_and_their_reading_is_then_wrong(settled):
                             e0=e0, band=(1e-2, 1e2), method=method, renorm_period=np.ones((1, 1), bool),
                             zeno_out=zeno)
             rates[k, method] = float(np.mean(np.diff(le[0, 0])))
-            if method == "rk4" or k > 0:
-                assert (zeno == 0).all(), (k, method, zeno)
-            else:
+            assert zeno.min() >= 0, (k, method, zeno)  # every row counted
+            guarded[k, method] = bool((zeno > 0).any())
+            if k == 0 and method == "expo":
                 assert zeno[0, 1] > 0, zeno  # the copy
-    assert rates[0, "expo"] > 5.0, rates
+    assert guarded[0, "expo"] and rates[0, "expo"] > 5.0, (guarded, rates)
     assert -1.0 < rates[0, "rk4"] < 0.0, rates
-    for k in (1, 2):   # two integrators, one exponent (stable orbits: negative)
-        assert rates[k, "rk4"] < 0.0 and abs(rates[k, "expo"] - rates[k, "rk4"]) < 0.05, rates
+    assert not any(guarded[k, "rk4"] for k in range(3)) and not guarded[1, "expo"], guarded
+    # two integrators, one exponent (stable orbits: negative) where expo's copy did not meet the
+    # guard: always at mu_s > mu_k (1), at the damped mu_s = mu_k point (2) depending on the CPU
+    for k in (1, 2):
+        assert rates[k, "rk4"] < 0.0, rates
+        if not guarded[k, "expo"]:
+            assert abs(rates[k, "expo"] - rates[k, "rk4"]) < 0.05, rates
     with pytest.raises(ValueError, match="zeno_out"):
         run_copies([prepared[0]], res[0].final_state[None], np.zeros((1, 1, off.shape[-1])),
                    np.zeros((1, 1)), (1 / scales[0])[None], n_periods=1, e0=1e-4, method="expo",
@@ -144,5 +154,7 @@ def test_the_stages_record_the_fallback(tmp_path):
     expo_pair = replace(nm, lyapunov=replace(nm.lyapunov, method="expo"))
     lya = lyapunov_points(pts, sim.reset_index(), expo_pair, str(tmp_path / "c"), threads=2)
     lya = lya.set_index("point_id")
-    # "u": its reference run fell back, so its pair is RK4's too
-    assert list(lya["lle_free_copy"]) == [ZENO_FALLBACK, "expo", "expo"]
+    # "u": its reference run fell back, so its pair is RK4's too; "above" stays on expo; "eq"
+    # (mu_s = mu_k) on expo or, where its copy met the guard (CPU-dependent), on RK4, said so
+    assert lya.loc["u", "lle_free_copy"] == ZENO_FALLBACK and lya.loc["above", "lle_free_copy"] == "expo"
+    assert lya.loc["eq", "lle_free_copy"] in ("expo", ZENO_FALLBACK)
