@@ -50,7 +50,7 @@ from analysis.pipeline.config import Numerics, as_numerics
 from analysis.pipeline.grid import canonical_json, point_id
 
 __all__ = ["CONTROLS", "ConvergenceSettings", "LOAD_SHIFT", "REFINEMENTS", "convergence_runs",
-           "convergence_summary", "held_interval", "label_text", "refine", "run_metadata",
+           "convergence_summary", "flagged", "held_interval", "label_text", "refine", "run_metadata",
            "same_label", "sample_points", "summary_line", "write_convergence_table"]
 
 #: the relative change of the load amplitude of the controls ``load_up`` / ``load_down``
@@ -317,6 +317,19 @@ def held_interval(held: int, n: int, level: float = HELD_CONFIDENCE) -> tuple[fl
     return float(ci.low), float(ci.high)
 
 
+def flagged(runs: pd.DataFrame, robust: pd.Series | None) -> np.ndarray:
+    """Per run row: whether the map flags its label as one a refinement need not keep: no
+    verdict in the map (``undetermined``, ``unsettled``, ``diverged``), no grid neighbour
+    sharing it (column ``supported`` False), or, with ``robust`` (per point: the label holds
+    under every load control), moving with a 2 % change of the load."""
+    out = ~runs["label"].isin(DECIDED).to_numpy(bool)
+    if "supported" in runs:
+        out |= runs["supported"].eq(False).fillna(False).to_numpy(bool)
+    if robust is not None:
+        out |= ~runs["point_id"].map(robust).fillna(True).to_numpy(bool)
+    return out
+
+
 def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
     """Per refinement (first-appearance order): ``n`` sampled points, ``held`` (labels equal),
     ``fraction`` (held / n) with its exact 95 % interval ``fraction_lo``, ``fraction_hi``
@@ -328,7 +341,9 @@ def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
     ``held_robust`` (of those, the labels that hold under this refinement); NA otherwise; and
     for every refinement, when ``runs`` has the column ``supported``, ``n_supported`` (sampled
     points whose label a grid neighbour shares) and ``held_supported`` (of those, the labels
-    that hold); NA otherwise."""
+    that hold); NA otherwise; ``unflagged`` (refinements only, NA for a control): the labels
+    that moved although the map flags nothing about them (:func:`flagged`), the count a
+    referee re-running those cells would find unexplained."""
     controls = runs[runs["refinement"].isin(CONTROLS)]
     robust = controls.groupby("point_id")["holds"].all() if len(controls) else None
     rows = []
@@ -346,6 +361,7 @@ def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
         if robust is not None and ref not in CONTROLS:
             is_robust = g["point_id"].map(robust).fillna(False).to_numpy(bool)
             n_robust, held_robust = int(is_robust.sum()), int((holds & is_robust).sum())
+        unflagged = pd.NA if ref in CONTROLS else int((~holds & ~flagged(g, robust)).sum())
         n_sup = held_sup = pd.NA
         if "supported" in g and g["supported"].notna().any():
             sup = g["supported"].fillna(False).to_numpy(bool)
@@ -357,9 +373,9 @@ def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
                      "contradicted": int((decided & ~holds).sum()),
                      "flips": "; ".join(f"{k}: {v}" for k, v in flips.items()),
                      "n_robust": n_robust, "held_robust": held_robust,
-                     "n_supported": n_sup, "held_supported": held_sup})
+                     "n_supported": n_sup, "held_supported": held_sup, "unflagged": unflagged})
     out = pd.DataFrame(rows)
-    for c in ("n_robust", "held_robust", "n_supported", "held_supported"):
+    for c in ("n_robust", "held_robust", "n_supported", "held_supported", "unflagged"):
         out[c] = out[c].astype("Int64")
     return out
 
@@ -368,8 +384,9 @@ def summary_line(summary: pd.DataFrame) -> str:
     """One line for a map's title: ``labels hold (sampled points; 95 % interval): step / 2
     19/20 [0.75-1.00], ...`` (no space inside an interval: a wrapped title keeps it whole),
     followed, when the summary has controls, by ``; of the 9/20 whose label holds under the
-    load controls: step / 2 9/9, ...`` and, when it has the neighbour support, by ``; of the
-    12/20 whose label a grid neighbour shares: step / 2 12/12, ...``."""
+    load controls: step / 2 9/9, ...``, when it has the neighbour support, by ``; of the
+    12/20 whose label a grid neighbour shares: step / 2 12/12, ...``, and by the refinements'
+    ``unflagged`` counts: ``; moved without a flag (...): step / 2 0, ...``."""
     if summary is None or summary.empty:
         return "labels not checked under refinement (convergence.sample = 0)"
     parts = [f"{r['what']} {r['held']}/{r['n']} [{r['fraction_lo']:.2f}-{r['fraction_hi']:.2f}]"
@@ -387,6 +404,11 @@ def summary_line(summary: pd.DataFrame) -> str:
         line += (f"; of the {n_sup}/{int(sup['n'].iloc[0])} whose label a grid neighbour shares: "
                  + ", ".join(f"{r['what']} {int(r['held_supported'])}/{n_sup}"
                              for _, r in sup.iterrows()))
+    unf = summary[summary["unflagged"].notna()] if "unflagged" in summary else summary.iloc[:0]
+    if len(unf):
+        line += ("; moved without a flag (no verdict, no neighbour shares it, moves with the "
+                 "load): "
+                 + ", ".join(f"{r['what']} {int(r['unflagged'])}" for _, r in unf.iterrows()))
     return line
 
 

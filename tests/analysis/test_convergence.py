@@ -150,7 +150,8 @@ def test_summary_counts_fractions_and_flips():
     assert list(s["contradicted"]) == [0, 2]
     assert s["flips"].iloc[1] == "chaotic -> quasi-periodic: 1; periodic-2 -> chaotic: 1"
     assert summary_line(s) == ("labels hold (sampled points; 95 % interval): step / 2 3/3 [0.29-1.00], "
-                               "k_t x 3 1/3 [0.01-0.91]")
+                               "k_t x 3 1/3 [0.01-0.91]; moved without a flag (no verdict, no "
+                               "neighbour shares it, moves with the load): step / 2 0, k_t x 3 2")
     runs.loc[3, "refined_label"] = "undetermined"  # no verdict: a change, not a contradiction
     runs.loc[3, "holds"] = False
     runs.loc[4, "refined_period"] = 3  # period 1 -> 3: the label does not hold
@@ -177,7 +178,10 @@ def test_summary_counts_the_labels_that_hold_among_the_load_robust_points():
     s = convergence_summary(runs)
     assert list(s["held"]) == [1, 3, 3]
     assert s["n_robust"].tolist() == [2, pd.NA, pd.NA] and s["held_robust"].tolist() == [1, pd.NA, pd.NA]
-    assert summary_line(s).endswith("; of the 2/4 whose label holds under the load controls: k_t x 3 1/2")
+    assert "; of the 2/4 whose label holds under the load controls: k_t x 3 1/2;" in summary_line(s)
+    # c and d move with the load (flagged); a moved without a flag
+    assert s["unflagged"].tolist() == [1, pd.NA, pd.NA]
+    assert summary_line(s).endswith("moves with the load): k_t x 3 1")
     alone = convergence_summary(runs[runs["refinement"] == "k_t"])
     assert alone["n_robust"].isna().all() and "load controls" not in summary_line(alone)
 
@@ -266,6 +270,22 @@ def test_summary_counts_the_labels_that_hold_among_the_supported_points():
     runs["supported"] = runs["supported"].astype("boolean")
     s = convergence_summary(runs)
     assert s["n_supported"].tolist() == [2] and s["held_supported"].tolist() == [1]
-    assert summary_line(s).endswith("; of the 2/3 whose label a grid neighbour shares: k_t x 3 1/2")
+    assert "; of the 2/3 whose label a grid neighbour shares: k_t x 3 1/2;" in summary_line(s)
+    assert s["unflagged"].tolist() == [1]  # b; c moved too, but no neighbour shares its label
     bare = convergence_summary(runs.drop(columns="supported"))
-    assert bare["n_supported"].isna().all() and "neighbour" not in summary_line(bare)
+    assert bare["n_supported"].isna().all()
+    assert "whose label a grid neighbour shares" not in summary_line(bare)
+
+
+def test_a_label_without_a_verdict_is_flagged_and_a_moved_verdict_is_not():
+    """``flagged``: the map's undetermined / unsettled labels are flagged (the map said it could
+    not tell), a verdict is flagged only by its neighbours or the load controls."""
+    from analysis.pipeline.convergence import flagged
+
+    runs = pd.DataFrame({"point_id": list("abcd"),
+                         "label": ["undetermined", "unsettled", "chaotic", "periodic"],
+                         "supported": pd.array([True, True, True, pd.NA], dtype="boolean")})
+    assert flagged(runs, None).tolist() == [True, True, False, False]
+    robust = pd.Series({"a": True, "b": True, "c": False, "d": True})
+    assert flagged(runs, robust).tolist() == [True, True, True, False]
+    assert flagged(runs.assign(supported=False), None).tolist() == [True] * 4
