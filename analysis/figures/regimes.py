@@ -117,7 +117,7 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
         z = np.full((ys.size, xs.size), np.nan)
         for (_, row), key in zip(table.iterrows(), keys):
             z[np.searchsorted(ys, row[ya]), np.searchsorted(xs, row[xa])] = codes[key]
-        fig, ax = plt.subplots(figsize=(8, 6), constrained_layout=True)
+        fig, ax = plt.subplots(figsize=(9, 8), constrained_layout=True)
         cmap = ListedColormap(list(LABEL_COLOURS.values()))
         ax.pcolormesh(_edges(xs, _is_log(grid, xa)), _edges(ys, _is_log(grid, ya)), z, cmap=cmap,
                       vmin=-0.5, vmax=len(LABEL_COLOURS) - 0.5, edgecolors="white", linewidth=0.3)
@@ -240,7 +240,7 @@ def plot_lle(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: in
         finite = np.abs(np.concatenate([z[np.isfinite(z)] for z in grids]))
         lim = lle_colour_limit(finite, resolution)
         over = bool(finite.size and finite.max() > lim)
-        fig, axs = plt.subplots(1, len(cols), figsize=(6.5 * len(cols), 5.5), constrained_layout=True,
+        fig, axs = plt.subplots(1, len(cols), figsize=(6.5 * len(cols), 7), constrained_layout=True,
                                 sharey=True, squeeze=False)
         xe, ye = _edges(xs, _is_log(grid, xa)), _edges(ys, _is_log(grid, ya))
         for ax, z, (col, name) in zip(axs[0], grids, cols):
