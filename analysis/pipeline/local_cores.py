@@ -31,7 +31,7 @@ def has_lone_job_shortcut(scheduler_class) -> bool:
         src = inspect.getsource(scheduler_class.job_selector)
     except (OSError, TypeError, AttributeError):
         return False
-    head, sep, rest = src.partition(_SHORTCUT)
+    _, sep, rest = src.partition(_SHORTCUT)
     return bool(sep) and rest.lstrip().startswith("return self.job_selector_greedy(")
 
 
