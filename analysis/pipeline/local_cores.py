@@ -1,12 +1,11 @@
 """Hold Snakemake's local scheduler to ``--cores``.
 
-Snakemake 9.10 and later (9.15 installed here; the same code in its current sources, upstream
-issue snakemake/snakemake#3913) start jobs whose threads add up to more than ``--cores``: when a
-single job is ready, ``JobScheduler.job_selector`` returns it without booking its threads
-against the free cores, but books them back when it finishes, so every job that ran alone adds
-its threads to the pool. Measured in the default run (2026-11-26): after the regime table, a
-job that ran alone, ``snakemake -c2`` started three two-thread convergence jobs and the
-portraits job at once, 7 threads on 2 cores.
+Snakemake 9.10 and later (9.15 installed here; the same code in the upstream snapshot read for
+this, commit 01a80b0; upstream issue snakemake/snakemake#3913) start jobs whose threads add up
+to more than ``--cores``: when a single job is ready, ``JobScheduler.job_selector`` returns it
+without booking its threads against the free cores, but books them back when it finishes, so
+every job that ran alone adds its threads to the pool (what that did to the default run:
+docs/reliability.md, "`-c2` means two cores").
 
 :func:`hold_local_cores` books the lone job's resources as the scheduler does for any other
 selection. It patches only when Snakemake's source has the faulty shortcut (read with
