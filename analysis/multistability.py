@@ -46,12 +46,12 @@ def perturbed_starts(params: dict, n: int, *, seed: int | Sequence[int] = 0,
     size = float(np.linalg.norm(response_scale(pp)))
     phi = slow_modes(pp.model, n_slow)
     k = phi.shape[1]
+    scale = amplitude * size / np.sqrt(k)
     rng = np.random.default_rng(seed)
     out = []
     for _ in range(int(n)):
         a, b = rng.standard_normal(k), rng.standard_normal(k)
         q, v = phi @ a, phi @ b
-        scale = amplitude * size / np.sqrt(k)
         out.append({"q0": scale * np.linalg.norm(a) * q / np.linalg.norm(q),
                     "v0": scale * pp.omega * np.linalg.norm(b) * v / np.linalg.norm(v)})
     return out

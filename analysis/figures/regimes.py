@@ -128,7 +128,9 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
                 ax.plot(row[xa], row[ya], marker="x", ms=3, color="white", mew=0.6)
             handles.append(plt.Line2D([], [], marker="x", ls="", color="0.3", label="never slipped (stuck)"))
         if "neighbours_same" in table.columns:  # labels finer than the grid
-            alone = table[(table["neighbours_same"] == 0) & (table["n_neighbours"] > 0)]
+            from analysis.pipeline.neighbours import supported
+
+            alone = table[supported(table).eq(False).fillna(False).to_numpy(bool)]
             ax.plot(alone[xa], alone[ya], "o", ms=2.5, color="black", ls="")
             handles.append(plt.Line2D([], [], marker="o", ms=2.5, ls="", color="black",
                                       label=f"label no neighbour shares ({len(alone)})"))
