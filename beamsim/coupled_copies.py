@@ -56,6 +56,12 @@ from beamsim.pattern_store import PatternStore, cache_slots, model_keys
 from beamsim.point import check_method_law, period_steps, stack_points
 from beamsim.two_layer import check_int, check_positive
 
+#: the ``expo`` copies' output grid, steps per forcing period (where they are measured,
+#: coupled and rescaled) when none is given: 64, finer than the reference runs' ``expo`` grid
+#: (:data:`beamsim.point.DEFAULT_STEPS_PER_PERIOD`, 16 since results version 14, when the
+#: checks' bounds began to follow the free modes' decay); the Lyapunov method's grid stayed
+EXPO_COPY_STEPS_PER_PERIOD = 64
+
 __all__ = ["run_copies"]
 
 
@@ -144,7 +150,8 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
     h = np.empty(P)
     n_per = np.empty(P, np.int64)
     for i, pp in enumerate(prepared):
-        n_per[i] = period_steps(pp, method, steps_per_period, step_factor)
+        n_per[i] = period_steps(pp, method, steps_per_period or (
+            EXPO_COPY_STEPS_PER_PERIOD if method == "expo" else None), step_factor)
         h[i] = 2 * math.pi / pp.omega / n_per[i]
     threads = numba.get_num_threads() if n_threads is None else check_int("n_threads", n_threads, 1)
     split = -(-threads // P) if split is None else int(split)

@@ -25,7 +25,7 @@ import numpy as np
 from analysis.pipeline.config import Numerics, as_numerics
 
 #: bump when a code change alters results for unchanged parameters (invalidates all ids)
-RESULTS_VERSION = "13"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
+RESULTS_VERSION = "14"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
 #                        conjugate pairs with damping, kernels with reassociated sums; 8: the
 #                        continuation check (the record kept is the continued one); 9: the
 #                        Lyapunov stage's free copy on expo (numerics.lyapunov.method: auto);
@@ -34,7 +34,9 @@ RESULTS_VERSION = "13"  # 6: adaptive transients, block statistics of lambda_1; 
 #                        (simulate record's method, lle_free_copy); 12: expo's real
 #                        eigen-decomposition, check ladder and closed form in the interval's
 #                        coefficients (switch times move in the last bits); 13: the Stefanski
-#                        ladder on expo where the free copy is (numerics.lyapunov.ladder: expo)
+#                        ladder on expo where the free copy is (numerics.lyapunov.ladder: expo);
+#                        14: expo's check bounds follow the free modes' decay, its reference
+#                        runs' output grid 16 steps per period (64 before)
 
 
 def _canonical(value):

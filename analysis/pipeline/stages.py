@@ -112,6 +112,21 @@ def free_copy_integrator(method: str, params: dict) -> str:
     return "expo" if expo_copy_supported(params) else "rk4"
 
 
+def expo_copy_steps(reference_steps: int | None) -> int | None:
+    """Output grid of the Lyapunov stage's ``expo`` copies (where they are measured, coupled
+    and rescaled) for a reference run's ``expo`` grid ``reference_steps`` (``None``: the
+    default of each, :data:`beamsim.point.DEFAULT_STEPS_PER_PERIOD` and
+    :data:`beamsim.coupled_copies.EXPO_COPY_STEPS_PER_PERIOD`).  A set grid is scaled by the
+    ratio of the two defaults, so the convergence evidence's ``step / 2``, which doubles the
+    reference grid, doubles the copies' grid too."""
+    from beamsim.coupled_copies import EXPO_COPY_STEPS_PER_PERIOD
+    from beamsim.point import DEFAULT_STEPS_PER_PERIOD
+
+    if reference_steps is None:
+        return None
+    return reference_steps * EXPO_COPY_STEPS_PER_PERIOD // DEFAULT_STEPS_PER_PERIOD["expo"]
+
+
 def expo_copy_supported(params: dict) -> bool:
     """Whether the ``expo`` free copy is validated for ``params``: the stick-slip law with
     ``mu_s > mu_k`` (a stuck element then starts below its slip limit)."""
@@ -332,9 +347,9 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
     if good:
         prepared = {i: prepare_point(**points[i]["params"]) for i in good}
         skip = {i: long_record_exemption(sim.loc[points[i]["point_id"]], points[i]["params"]) for i in good}
-        # a fixed step count is an RK4 setting only when RK4 was asked for by name, and the
-        # expo output grid's (the free expo copy's measuring grid) when the reference runs are
-        # expo's (so the convergence evidence's "step / 2" reaches the expo pair too)
+        # a fixed step count is an RK4 setting only when RK4 was asked for by name, and sets
+        # the expo copies' measuring grid (expo_copy_steps) when the reference runs are expo's
+        # (so the convergence evidence's "step / 2" reaches the expo pair too)
         rk4_steps = nm.steps_per_period if nm.method == "rk4" else None
         # one beam_lle call per (free copy's integrator, its expo grid, long record or not)
         runs: dict = {}
@@ -344,7 +359,7 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
         for i in good:
             free = "rk4" if i in fell_back else asked[i]
             ref = integrator(nm.method, points[i]["params"])
-            spp = nm.steps_per_period if free == "expo" and ref == "expo" else None
+            spp = expo_copy_steps(nm.steps_per_period) if free == "expo" and ref == "expo" else None
             runs.setdefault((free, spp or 0, skip[i] is None), []).append(i)
         for (method, spp, long_record), subset in sorted(runs.items()):
             plan = lopt.block_plan() if long_record else None

@@ -13,7 +13,8 @@ and the state obeys ``x' = A x + b + g_v F(t)``.  With the eigen-decomposition
 interval's coefficients ``zeta_k = A_k e^{lam_k tau} + B_k + C_k e^{i w tau} + D_k e^{-i w tau}``
 where these do not cancel (:func:`_state_at`).  The event functions are checked at adaptive
 points placed where no crossing can have happened before them (a bound of their second
-derivative from the closed form), on a ladder of spacings ``d_min 2^(m/3)`` whose factors
+derivative from the closed form, renewed at every check with the free modes' decay), on a
+ladder of spacings ``d_min 2^(m/3)`` whose factors
 ``e^{lam_k d}`` are cached with the decomposition (a check advances the exponentials by one
 multiplication); the earliest crossing is refined by Illinois with a bisection safeguard, the
 switches are applied and a new pattern starts.  The work of the load is integrated exactly;
@@ -60,8 +61,10 @@ Modes = namedtuple("Modes", ("lam", "V", "Vi", "SVq", "SVv", "cg", "gam", "nh", 
 
 #: per-point scratch: permanently free elements, stuck set, real state ``xr``, modal states
 #: ``zeta0`` (interval start), ``zeta`` (current), ``ztmp``, modal forcing ``beta``, the
-#: interface load ``rv``, rate bounds ``r1, r2`` (``r1`` also :func:`_project`'s scratch) and
-#: ``rate``, modal rate ``zdot``, slips ``sbuf``, slip rates ``sdbuf``, event functions
+#: interface load ``rv``, the free parts of the rate bounds ``r1, r2`` (``r1`` also
+#: :func:`_project`'s scratch), the bounds ``rate`` and their forced parts ``ratec``, the
+#: scratch ``mag`` (:func:`_rate_bounds`, :func:`_decayed_rates`), modal rate ``zdot``, slips
+#: ``sbuf``, slip rates ``sdbuf``, event functions
 #: ``fcur, fprev``, counters ``cnt`` (filled decompositions computed, events, checks,
 #: Zeno-guard steps); ``n_sub`` checks per step at least; ``glam`` the eigenvalues of the
 #: slot ``gslot[0]`` with the point's resonance guard applied (``gslot[0] = -1``: the current
@@ -70,13 +73,18 @@ Modes = namedtuple("Modes", ("lam", "V", "Vi", "SVq", "SVv", "cg", "gam", "nh", 
 #: e^{lam_k tau}`` at the last check
 ExpoWork = namedtuple("ExpoWork", ("free", "stuck", "xr", "zeta0", "zeta", "ztmp", "beta", "rv",
                                    "r1", "r2", "zdot", "sbuf", "sdbuf", "fcur", "fprev", "rate",
-                                   "cnt", "n_sub", "glam", "gslot", "ca", "cb", "cc", "cd", "el"))
+                                   "cnt", "n_sub", "glam", "gslot", "ca", "cb", "cc", "cd", "el",
+                                   "ratec", "mag"))
 
 _N_EIG, _N_EVENTS, _N_CHECKS, _N_ZENO = 0, 1, 2, 3
 #: length of the counters ``cnt``
 N_COUNTERS = 4
 #: ``PatternCache.count``: filled slots, decompositions stored
 _FILLED, _STORED = 0, 1
+#: the Zeno guard's window: at most ``10 nq + 10`` switches per this fraction of a forcing
+#: period (:func:`_step`; the output step of results versions 5-13, on which the guard
+#: counted, before the output grid went to 16 steps per period)
+ZENO_WINDOWS_PER_PERIOD = 64
 #: rungs of the check-spacing ladder: spacings ``d_min 2^(m/3)``, ``m < LADDER_RUNGS`` (a
 #: spacing the bound allows beyond the top rung takes the top rung)
 LADDER_RUNGS = 30
@@ -448,19 +456,28 @@ def _rate_bounds(t0, md, wk, x, pt):
         wk.cb[k] = Bk
         wk.cc[k] = Ck
         wk.cd[k] = Dk
-        r1[k] = al * al * abs(Ak) + om * om * (abs(Ck) + abs(Dk))
-        r2[k] = al * al * al * abs(Ak) + om * om * om * (abs(Ck) + abs(Dk))
+        aA = abs(Ak)
+        r1[k] = al * al * aA
+        r2[k] = al * al * al * aA
+        wk.mag[k] = om * om * (abs(Ck) + abs(Dk))
+    # the bound is split: the forced part (constant over the interval) into wk.ratec, the free
+    # part (r1, r2: amplitudes at the interval's start) decays, :func:`_decayed_rates`
     aS = md.aSVq
     for j in range(x.z.shape[0]):
         acc = 0.0
+        accc = 0.0
         if x.mode[j] == 0:
             for k in range(md.nh):
                 acc += aS[j, k] * r1[k]
-            wk.rate[j] = pt.kt * acc
+                accc += aS[j, k] * wk.mag[k]
+            wk.ratec[j] = pt.kt * accc
+            wk.rate[j] = pt.kt * (acc + accc)
         else:
             for k in range(md.nh):
                 acc += aS[j, k] * r2[k]
-            wk.rate[j] = acc
+                accc += aS[j, k] * wk.mag[k]
+            wk.ratec[j] = om * accc
+            wk.rate[j] = acc + om * accc
     return lmax, sep
 
 
@@ -567,6 +584,30 @@ def _ladder_check(m, tau, md, wk, pt):
         wk.zeta[k] = wk.ca[k] * e + wk.cb[k] + wk.cc[k] * eiw + wk.cd[k] * eiwc
 
 
+@njit(**LEAF, inline="always")
+def _decayed_rates(md, wk, x, pt):
+    """The rate bounds of :func:`_rate_bounds` renewed at a ladder check ``tau_c``: the free
+    part of mode ``k`` is ``A_k e^{lam_k tau}``, and ``|e^{lam_k tau}| <= |e^{lam_k tau_c}|``
+    (``wk.el``) for ``tau >= tau_c`` because ``Re lam_k <= 0`` (a passive structure; the
+    resonance guard only shifts ``lam_k`` to the left), so the bounds with the amplitudes
+    ``|A_k| |e^{lam_k tau_c}|`` hold from the check on.  The interface's fast modes decay
+    within a fraction of an interval, so the checks that follow are spaced by the slow motion
+    (their number and cost: docs/performance.md)."""
+    for k in range(md.nh):
+        wk.mag[k] = abs(wk.el[k])
+    aS = md.aSVq
+    for j in range(x.z.shape[0]):
+        acc = 0.0
+        if x.mode[j] == 0:
+            for k in range(md.nh):
+                acc += aS[j, k] * (wk.r1[k] * wk.mag[k])
+            wk.rate[j] = wk.ratec[j] + pt.kt * acc
+        else:
+            for k in range(md.nh):
+                acc += aS[j, k] * (wk.r2[k] * wk.mag[k])
+            wk.rate[j] = wk.ratec[j] + acc
+
+
 @njit(**LEAF)
 def _find_event(t0, span, md, wk, x, pt):
     """Earliest switch in ``(t0, t0 + span]`` (interval offset, or -1.0 if none) and whether
@@ -597,6 +638,7 @@ def _find_event(t0, span, md, wk, x, pt):
             _state_at(tau, closed, md, wk, t0, pt, wk.zeta)
         elif rungs > 0:
             _ladder_check(m, tau, md, wk, pt)
+            _decayed_rates(md, wk, x, pt)
         else:
             _zeta_at(tau, md, wk, t0, pt, wk.zeta)
         wk.cnt[_N_CHECKS] += 1
@@ -704,7 +746,8 @@ def new_scratch(pt, n_sub, cnt):
                     np.empty(nq), np.empty(nq), cnt, n_sub, np.empty(n2, np.complex128),
                     np.full(1, -1, np.int64), np.empty(n2, np.complex128),
                     np.empty(n2, np.complex128), np.empty(n2, np.complex128),
-                    np.empty(n2, np.complex128), np.empty(n2, np.complex128))
+                    np.empty(n2, np.complex128), np.empty(n2, np.complex128), np.empty(nq),
+                    np.empty(n2))
 
 
 @njit(cache=True, inline="always")
@@ -773,10 +816,14 @@ def _interval(t0, t_end, slot, cache, wk, x, pt, tally):
 
 @njit(cache=True)
 def _step(t0, t_end, slot, cache, wk, x, pt, tally):
-    """Advance from ``t0`` to the step end ``t_end`` through every switch in between (Zeno
-    guard: at most ``10 nq + 10`` switches, then the state is accepted on the grid).  Returns
-    ``(t0, slot)`` for the next step (``slot = -1``: the pattern must be looked up)."""
+    """Advance from ``t0`` to the step end ``t_end`` through every switch in between.  Zeno
+    guard: more than ``10 nq + 10`` switches within :data:`ZENO_WINDOWS_PER_PERIOD`-th of a
+    forcing period, and the state is accepted as it is at the end of that window (a jump in
+    time, counted).  Returns ``(t0, slot)`` for the next step (``slot = -1``: the pattern must
+    be looked up)."""
     guard = 0
+    window = 2.0 * math.pi / pt.om / ZENO_WINDOWS_PER_PERIOD
+    t_win = t0
     while True:
         if slot < 0:
             slot = _pattern_slot(cache, wk, x, pt)
@@ -784,12 +831,20 @@ def _step(t0, t_end, slot, cache, wk, x, pt, tally):
         t0, switched = _interval(t0, t_end, slot, cache, wk, x, pt, tally)
         if not switched:
             return t0, slot
+        if t0 - t_win >= window:
+            t_win = t0
+            guard = 0
         guard += 1
         slot = -1
         if guard > 10 * x.z.shape[0] + 10:
-            # Zeno guard: accept the state, resume on the grid (counted: the run is flagged)
+            # Zeno guard: accept the state, resume at the window's end (counted: the run is
+            # flagged)
             wk.cnt[_N_ZENO] += 1
-            return t_end, slot
+            t0 = min(t_win + window, t_end)
+            if t0 >= t_end:
+                return t_end, slot
+            t_win = t0
+            guard = 0
 
 
 @njit(cache=True)

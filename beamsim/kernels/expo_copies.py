@@ -163,7 +163,8 @@ def _drive_modes(k, cache, log, pt, wk):
                         expo.weighted_abs(SVq, wt), np.empty((0, lam.shape[0]), np.complex128))
     w = expo.ExpoWork(wk.free, wk.stuck, wk.xr, log.zeta0[k], wk.zeta, wk.ztmp, log.beta[k], wk.rv,
                       wk.r1, wk.r2, wk.zdot, wk.sbuf, wk.sdbuf, wk.fcur, wk.fprev, wk.rate, wk.cnt,
-                      wk.n_sub, wk.glam, wk.gslot, wk.ca, wk.cb, wk.cc, wk.cd, wk.el)
+                      wk.n_sub, wk.glam, wk.gslot, wk.ca, wk.cb, wk.cc, wk.cd, wk.el,
+                      wk.ratec, wk.mag)
     return md, w
 
 

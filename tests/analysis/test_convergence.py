@@ -26,6 +26,9 @@ from analysis.pipeline.convergence import (
     summary_line,
 )
 from analysis.pipeline.grid import canonical_json, point_id
+from analysis.pipeline.stages import expo_copy_steps
+from beamsim.coupled_copies import EXPO_COPY_STEPS_PER_PERIOD
+from beamsim.point import DEFAULT_STEPS_PER_PERIOD
 
 ROOT = Path(__file__).resolve().parents[2]
 POINT = {"n_modes": 2, "k_t": 10.0, "mu_s": 0.45, "mu_k": 0.3, "Omega": 2.5, "f0_rel": 0.3}
@@ -36,8 +39,11 @@ def test_each_refinement_changes_its_knob_only():
     p, r = refine("step", POINT, nm)  # stick-slip: expo reference, its switch checks twice as dense
     assert p == POINT
     # (and the RK4 step of its Zeno fallback halved: expo itself does not use step_factor)
-    assert r.steps_per_period == 128 and r.step_factor == nm.step_factor / 2
+    assert r.steps_per_period == 2 * DEFAULT_STEPS_PER_PERIOD["expo"] and r.step_factor == nm.step_factor / 2
     assert r.lyapunov.step_factor == nm.lyapunov.step_factor / 2
+    # the Lyapunov stage's expo copies: their own grid, doubled with the reference's
+    assert expo_copy_steps(nm.steps_per_period) is None
+    assert expo_copy_steps(r.steps_per_period) == 2 * EXPO_COPY_STEPS_PER_PERIOD
     p, r = refine("step", POINT | {"law": "stribeck"}, nm)  # RK4 reference: its step halved
     assert r.steps_per_period is None and r.step_factor == nm.step_factor / 2
     _, r = refine("step", POINT, Numerics(method="rk4", steps_per_period=300))
