@@ -5,8 +5,8 @@ reversal ``expo`` can then switch it stick/slip every ~1e-9 time units until its
 (``10 n_quad + 10`` switches in one step) puts the state on the step's end: a jump in time
 (docs/lyapunov.md, section 12). The point is the paper's Fig 9a point (``Omega`` 1.5,
 ``f0_rel`` 6.67, ``mu = 0.3``) with two modes, a stable period-1 orbit; without the interface
-dashpot (the paper's beam), at ``f0_rel`` 7, both ``expo``'s reference run and its Lyapunov
-copies meet the guard.
+dashpot (the paper's beam), at ``f0_rel`` 7, the ``expo`` Lyapunov copies meet the guard, and
+the reference run at one of the loads 6-8 (which one moves with the last bits).
 
 Independent evidence that the guard is a defect and not physics: the RK4 pair (another
 integrator, its switches located within fixed steps) reads a negative exponent there, while the
@@ -40,12 +40,27 @@ from beamsim.simulate import prepare_point, simulate_batch
 EQUAL = dict(n_modes=2, mu_s=0.3, mu_k=0.3, Omega=1.5, f0_rel=6.66666666667, interface_viscosity=0.0939)
 #: the same point with mu_s = 1.5 mu_k (the default grid's ratio)
 ABOVE = dict(EQUAL, mu_s=0.45)
-#: EQUAL without the dashpot (the paper's beam has none) at a slightly larger load: expo's
-#: reference run (between periods 46 and 94) and its Lyapunov copies meet the guard.  At f0_rel 6.67
-#: the copies do, the reference run did up to results version 11 (not in 164 periods since)
+#: EQUAL without the dashpot (the paper's beam has none) at a slightly larger load: its expo
+#: Lyapunov copies meet the guard (and its reference run did, between periods 46 and 94, in
+#: results versions 12-13; the reference runs' guard is asked of the loads of SCAN).  At
+#: f0_rel 6.67 the copies do, the reference run did up to results version 11
 UNDAMPED = dict(EQUAL, interface_viscosity=0.0, f0_rel=7.0)
 #: the fixture's points: the guarded one, the one above it, the damped one at mu_s = mu_k
 POINTS = (UNDAMPED, ABOVE, EQUAL)
+#: loads of the undamped point scanned for an expo reference run that meets the guard within
+#: 94 periods: which grazing reversal chatters depends on the last bits of the trajectory
+#: (f0_rel 7.0 up to results version 13; in version 14, 7.67 only, 8 guarded steps, on an
+#: AVX-512 host, 2026-11-27), so the tests ask for one of them, not for a given one
+SCAN = (6.0, 6.33, 6.67, 7.0, 7.33, 7.67, 8.0)
+
+
+@pytest.fixture(scope="module")
+def scan():
+    """Guarded steps of the expo reference runs over :data:`SCAN`, at ``mu_s = mu_k`` and at
+    ``mu_s = 0.45`` (30 + 64 periods from rest)."""
+    pts = [dict(UNDAMPED, f0_rel=f, mu_s=mu) for mu in (0.3, 0.45) for f in SCAN]
+    res = simulate_batch(pts, n_transient=30, n_record=64, method="expo", n_threads=2)
+    return [r.n_zeno for r in res[:len(SCAN)]], [r.n_zeno for r in res[len(SCAN):]]
 
 
 @pytest.fixture(scope="module")
@@ -59,12 +74,11 @@ def settled():
     return res, prepared, scales
 
 
-def test_the_reference_run_counts_the_guard():
-    """``expo``'s reference run of the undamped point meets the guard at ``mu_s = mu_k``, not at
-    ``mu_s > mu_k``; RK4 never (no guard)."""
-    eq, above = simulate_batch([UNDAMPED, dict(UNDAMPED, mu_s=0.45)], n_transient=30, n_record=64,
-                               method="expo", n_threads=2)
-    assert eq.n_zeno > 0 and above.n_zeno == 0, (eq.n_zeno, above.n_zeno)
+def test_the_reference_run_counts_the_guard(scan):
+    """``expo``'s reference run of the undamped point meets the guard at ``mu_s = mu_k`` (at
+    one load of the scan at least), never at ``mu_s > mu_k``; RK4 never (no guard)."""
+    equal, above = scan
+    assert any(z > 0 for z in equal) and not any(above), scan
     rk = simulate_batch([UNDAMPED], n_transient=2, n_record=2, method="rk4", step_factor=1.0, n_threads=1)
     assert rk[0].n_zeno == 0
 
@@ -136,13 +150,14 @@ def test_beam_lle_runs_a_guarded_point_on_rk4(settled):
     assert not rk4.stefanski.chaotic, rk4.stefanski.verdict  # a stable orbit
 
 
-def test_the_stages_record_the_fallback(tmp_path):
+def test_the_stages_record_the_fallback(tmp_path, scan):
     """Through the pipeline's stages (``method: auto``: ``expo`` reference runs): the undamped
     point's simulate record, whose ``expo`` run met the guard, is the RK4 stage's record, marked;
     the others' are ``expo``'s. With ``lyapunov.method: expo`` the undamped point's free copy
     runs on RK4 (because its reference run did), the damped ones stay on ``expo``."""
     nm = Numerics(n_transient=30, n_record=128, n_transient_max=30, continuation_check=False)
-    pts = [{"point_id": k, "params": v} for k, v in (("u", UNDAMPED), ("eq", EQUAL), ("above", ABOVE))]
+    guarded = dict(UNDAMPED, f0_rel=next(f for f, z in zip(SCAN, scan[0]) if z > 0))
+    pts = [{"point_id": k, "params": v} for k, v in (("u", guarded), ("eq", EQUAL), ("above", ABOVE))]
     sim = simulate_points(pts, nm, str(tmp_path / "a"), threads=2).set_index("point_id")
     ref = simulate_points(pts[:1], replace(nm, method="rk4"), str(tmp_path / "b"), threads=2)
     ref = ref.set_index("point_id")
