@@ -59,7 +59,8 @@ from beamsim.two_layer import check_int, check_positive
 #: the ``expo`` copies' output grid, steps per forcing period (where they are measured,
 #: coupled and rescaled) when none is given: 64, finer than the reference runs' ``expo`` grid
 #: (:data:`beamsim.point.DEFAULT_STEPS_PER_PERIOD`, 16 since results version 14, when the
-#: checks' bounds began to follow the free modes' decay); the Lyapunov method's grid stayed
+#: checks' bounds began to follow the free modes' decay): the Lyapunov method's grid stayed
+#: where its checks were made (docs/lyapunov.md, section 12)
 EXPO_COPY_STEPS_PER_PERIOD = 64
 
 __all__ = ["run_copies"]
