@@ -28,8 +28,16 @@ def allowed(schema: dict) -> str:
     return " and ".join(x for x in (f"{kind}", lo, hi) if x)
 
 
+def key_text(key) -> str:
+    """A config key as text on one line: itself, or its ``repr`` where it would not print as
+    itself (a newline or other control character, blanks around it, empty), so that an error
+    message naming it stays one line."""
+    text = str(key)
+    return text if text and text.isprintable() and text == text.strip() else repr(key)
+
+
 def _one_line(err) -> str:
-    key = ".".join(map(str, err.absolute_path)) or "(top level)"
+    key = ".".join(map(key_text, err.absolute_path)) or "(top level)"
     alt = err if err.validator in ("oneOf", "anyOf") else err.parent
     scalar = ("integer", "number", "string", "boolean")
     if (alt is not None and alt.validator in ("oneOf", "anyOf")  # scalar alternatives: integer or "all"
@@ -130,13 +138,13 @@ def validate_grid_values(grids: dict, model_schema: dict, grid_file: str) -> Non
     (``model_schema``: the config schema's model section)."""
     props = model_schema["properties"]
     for name, grid in grids.items():
-        entries = [(f"fixed.{k}", k, v) for k, v in grid.get("fixed", {}).items()]
+        entries = [(f"fixed.{key_text(k)}", k, v) for k, v in grid.get("fixed", {}).items()]
         for axis, spec in grid["axes"].items():
             if isinstance(spec, dict) and "range" in spec:
                 vals = spec["range"]
             else:
                 vals = spec["values"] if isinstance(spec, dict) else spec
-            entries += [(f"axes.{axis}", axis, v) for v in vals]
+            entries += [(f"axes.{key_text(axis)}", axis, v) for v in vals]
         for where, key, value in entries:
             if key not in props:
                 raise WorkflowError(f"invalid config: grids.{name}.{where}: unknown model parameter "

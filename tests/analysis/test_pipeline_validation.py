@@ -230,3 +230,19 @@ def test_a_rigid_stick_map_with_a_breakaway_drop_is_refused():
     msg = str(err.value)
     assert msg.startswith("invalid config:") and "\n" not in msg, msg
     assert "mu_s = 0.45 > mu_k = 0.3" in msg and "stick-slip" in msg, msg
+
+
+@pytest.mark.parametrize("key", ["\n\n", " Omega", ""])
+def test_a_grid_key_that_does_not_print_as_itself_is_named_in_one_line(key):
+    """A fixed override whose key holds a newline, blanks around it, or nothing (an edit the
+    config-mutation test found, 2026-11-27) is named by its ``repr``: the refusal stays one
+    line."""
+    from analysis.pipeline.validation import validate_grid_values
+
+    model_schema = yaml.safe_load(SCHEMA.read_text())["$defs"]["model"]
+    grids = {"g": {"axes": {"Omega": [1.0]}, "fixed": {key: 1.85}}}
+    with pytest.raises(WorkflowError) as err:
+        validate_grid_values(grids, model_schema, "grid.yaml")
+    msg = str(err.value)
+    assert msg.startswith(f"invalid config: grids.g.fixed.{key!r}: unknown model parameter"), msg
+    assert "\n" not in msg
