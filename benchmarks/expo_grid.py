@@ -1,6 +1,6 @@
 """``expo``'s output grid: what 16, 32, 64 and 128 steps per forcing period cost and change.
 
-    .venv/bin/python benchmarks/expo_grid.py            (about 3 minutes, one thread)
+    .venv/bin/python benchmarks/expo_grid.py            (about 30 s, one thread)
 
 ``expo`` is exact between located switches; its steps set only the output grid (Poincare
 samples at period ends, the slip statistics and the divergence test at step ends) and the
