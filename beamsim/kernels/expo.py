@@ -94,6 +94,27 @@ LADDER_RUNGS = 30
 _SEP_MIN = 1e-3
 
 
+@njit(**LEAF, inline="always")
+def _cabs2(z):
+    """``|z|^2`` of a complex ``z``."""
+    return z.real * z.real + z.imag * z.imag
+
+
+@njit(**LEAF, inline="always")
+def _cabs(z):
+    """``|z|`` of a complex ``z`` as ``sqrt(re^2 + im^2)``: numba's ``abs`` of a complex number
+    calls libm's ``hypot``, which guards against overflow and underflow at several times the
+    cost (the hot loops' magnitudes are far from either; what it cost: docs/performance.md)."""
+    return math.sqrt(z.real * z.real + z.imag * z.imag)
+
+
+@njit(**LEAF, inline="always")
+def _eit(x):
+    """``e^{i x}`` for a real ``x`` (``cos x + i sin x``: one ``sincos``, where numba's
+    complex ``exp`` also evaluates ``exp(0)``)."""
+    return complex(math.cos(x), math.sin(x))
+
+
 @njit(cache=True)
 def _pattern(stuck, pt):
     """Eigen-decomposition ``A = V diag(lam) V^-1`` of the first-order matrix of the linear system
@@ -167,7 +188,7 @@ def _lmax(lam, nh):
     ``d_min = 0.1 / lmax``)."""
     lmax = 0.0
     for k in range(nh):
-        al = abs(lam[k])
+        al = _cabs(lam[k])
         if al > lmax:
             lmax = al
     return lmax
@@ -204,7 +225,7 @@ def weighted_abs(SVq, wt):
 def _phi_e(lk, tau, e):
     """(e - 1) / lk with e = exp(lk tau) precomputed (series for small |lk tau|); lk complex."""
     x = lk * tau
-    if abs(x) < 1e-4:
+    if _cabs2(x) < 1e-8:
         return tau * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x / 24.0)))
     return (e - 1.0) / lk
 
@@ -213,7 +234,7 @@ def _phi_e(lk, tau, e):
 def _psi(lk, mu, tau, el, emu):
     """(exp(mu tau) - exp(lk tau)) / (mu - lk), given el = exp(lk tau), emu = exp(mu tau)."""
     d = mu - lk
-    if abs(d * tau) < 1e-4:
+    if _cabs2(d * tau) < 1e-8:
         x = d * tau
         return el * tau * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x / 24.0)))
     return (emu - el) / d
@@ -226,9 +247,9 @@ def _zeta_at(tau, md, wk, t0, pt, out):
     in the hot loops)."""
     f0, om = pt.f0, pt.om
     lam, gam, z0, beta = md.lam, md.gam, wk.zeta0, wk.beta
-    ep = np.exp(1j * om * t0)
+    ep = _eit(om * t0)
     em = np.conj(ep)
-    eip = np.exp(1j * om * tau)
+    eip = _eit(om * tau)
     eim = np.conj(eip)
     io = 1j * om
     for k in range(md.nh):
@@ -246,13 +267,13 @@ def _work(tau1, md, wk, t0, pt):
     real, so the real sum over the first ``nh`` modes, each of the first ``nc`` twice)."""
     f0, om = pt.f0, pt.om
     lam, gam, cg, z0, beta, wt = md.lam, md.gam, md.cg, wk.zeta0, wk.beta, md.wt
-    ep = np.exp(1j * om * t0)
+    ep = _eit(om * t0)
     em = np.conj(ep)
     io = 1j * om
     ap = 0.5 * f0 * ep
     am = 0.5 * f0 * em
     a0 = -f0 + 0.0j
-    eip = np.exp(io * tau1)
+    eip = _eit(om * tau1)
     eim = np.conj(eip)
     total = 0.0j
     SB = 0.0j
@@ -360,14 +381,21 @@ def _fill_slot(key, cache, wk, pt):
     return slot
 
 
+@njit(**LEAF, inline="always")
+def _near(lk, om, tol):
+    """``|lk - i om| < tol`` or ``|lk + i om| < tol`` (compared squared)."""
+    re2 = lk.real * lk.real
+    return re2 + (lk.imag - om) ** 2 < tol * tol or re2 + (lk.imag + om) ** 2 < tol * tol
+
+
 @njit(**LEAF)
 def resonant(lam, om):
     """True if an eigenvalue is within ``tol = 1e-9 (|lam| + om)`` of ``+-i om``: the
     exact-resonance guard of a point with forcing frequency ``om`` (the closed forms divide by
     ``+-i om - lam``) must shift it (:func:`shift_resonant`)."""
     for k in range(lam.shape[0]):
-        tol = 1e-9 * (abs(lam[k]) + om)
-        if abs(lam[k] - 1j * om) < tol or abs(lam[k] + 1j * om) < tol:
+        tol = 1e-9 * (_cabs(lam[k]) + om)
+        if _near(lam[k], om, tol):
             return True
     return False
 
@@ -377,9 +405,9 @@ def shift_resonant(lam, om, out):
     """``out = lam`` with every eigenvalue within ``tol`` of ``+-i om`` (:func:`resonant`)
     shifted by ``-tol``; ``out`` may be ``lam``."""
     for k in range(lam.shape[0]):
-        tol = 1e-9 * (abs(lam[k]) + om)
+        tol = 1e-9 * (_cabs(lam[k]) + om)
         out[k] = lam[k]
-        if abs(lam[k] - 1j * om) < tol or abs(lam[k] + 1j * om) < tol:
+        if _near(lam[k], om, tol):
             out[k] = lam[k] - tol
 
 
@@ -437,16 +465,16 @@ def _rate_bounds(t0, md, wk, x, pt):
     ``1 / tau`` the coefficients cancel: :func:`_closed_form`)."""
     f0, om = pt.f0, pt.om
     lam, gam, r1, r2 = md.lam, md.gam, wk.r1, wk.r2
-    ep = np.exp(1j * om * t0)
+    ep = _eit(om * t0)
     io = 1j * om
-    sep = math.inf
+    sep2 = math.inf
     lmax = 0.0
     for k in range(md.nh):
         lk = lam[k]
-        al = abs(lk)
+        al = _cabs(lk)
         if al > lmax:   # the same maximum, in the same order, as the ladder's (_lmax)
             lmax = al
-        sep = min(sep, al, abs(io - lk), abs(io + lk))
+        sep2 = min(sep2, al * al, _cabs2(io - lk), _cabs2(io + lk))
         fg = f0 * gam[k]
         Bk = (fg - wk.beta[k]) / lk
         Ck = fg * 0.5 * ep / (io - lk)
@@ -456,10 +484,10 @@ def _rate_bounds(t0, md, wk, x, pt):
         wk.cb[k] = Bk
         wk.cc[k] = Ck
         wk.cd[k] = Dk
-        aA = abs(Ak)
+        aA = _cabs(Ak)
         r1[k] = al * al * aA
         r2[k] = al * al * al * aA
-        wk.mag[k] = om * om * (abs(Ck) + abs(Dk))
+        wk.mag[k] = om * om * (_cabs(Ck) + _cabs(Dk))
     # the bound is split: the forced part (constant over the interval) into wk.ratec, the free
     # part (r1, r2: amplitudes at the interval's start) decays, :func:`_decayed_rates`
     aS = md.aSVq
@@ -478,7 +506,7 @@ def _rate_bounds(t0, md, wk, x, pt):
                 accc += aS[j, k] * wk.mag[k]
             wk.ratec[j] = om * accc
             wk.rate[j] = acc + om * accc
-    return lmax, sep
+    return lmax, math.sqrt(sep2)
 
 
 @njit(**LEAF, inline="always")
@@ -523,7 +551,7 @@ def _closed_form(tau, md, wk, pt, out):
     Cheaper than :func:`_zeta_at` (no divisions), but its terms are up to ``1 / sep`` times
     the state (``sep`` from :func:`_rate_bounds`), so an interval uses it only where ``sep *
     span`` is at least :data:`_SEP_MIN` (:func:`_state_at`)."""
-    eiw = np.exp(1j * pt.om * tau)
+    eiw = _eit(pt.om * tau)
     eiwc = np.conj(eiw)
     for k in range(md.nh):
         out[k] = wk.ca[k] * np.exp(md.lam[k] * tau) + wk.cb[k] + wk.cc[k] * eiw + wk.cd[k] * eiwc
@@ -544,29 +572,63 @@ def _state_at(tau, closed, md, wk, t0, pt, out):
 
 
 @njit(**LEAF, inline="always")
+def _slope(j, zeta, tau, t0, md, x, pt, wk):
+    """Time derivative of element ``j``'s event function (:func:`_cond`) at the modal state
+    ``zeta`` at ``t0 + tau``, from the interval's equation ``zeta' = lam zeta + beta + gam
+    F(t0 + tau)`` (no exponential: the state is given)."""
+    Fc = pt.f0 * (math.cos(pt.om * (t0 + tau)) - 1.0)
+    wt = md.wt
+    sd = 0.0
+    if x.mode[j] == 0:
+        s = 0.0
+        for k in range(md.nh):
+            s += wt[k] * (md.SVq[j, k] * zeta[k]).real
+            sd += wt[k] * (md.SVq[j, k] * (md.lam[k] * zeta[k] + wk.beta[k] + md.gam[k] * Fc)).real
+        return pt.kt * sd if s - x.z[j] >= 0.0 else -pt.kt * sd
+    for k in range(md.nh):
+        sd += wt[k] * (md.SVv[j, k] * (md.lam[k] * zeta[k] + wk.beta[k] + md.gam[k] * Fc)).real
+    return -x.mode[j] * sd
+
+
+@njit(**LEAF, inline="always")
 def _refine(j, lo, tau, span, t0, md, wk, x, pt, closed):
-    """Crossing of element ``j``'s event function in ``[lo, tau]`` (Illinois, i.e. modified
-    regula falsi, with every fourth and every step after the 40th a bisection; the modal state
-    from :func:`_state_at`); returns the right end of the final bracket."""
+    """Crossing of element ``j``'s event function ``f`` in ``[lo, tau]`` (``f(lo) <= 0 <
+    f(tau)``, the modal state from :func:`_state_at`); returns the right end ``b`` of the final
+    bracket, ``b - a <= 1e-12 span`` with ``f(b) > 0``.  Newton steps (the slope
+    :func:`_slope` costs no exponential, the state does) inside the bracket, the first from
+    ``tau`` with the check's own state; a step that leaves the bracket falls back to regula
+    falsi, and from the 8th evaluation every third one (every one after the 40th) is a
+    bisection.  A Newton step shorter than half the tolerance is pushed by half the tolerance
+    past the root, so that the bracket closes from both sides."""
     a = lo
     b = tau
     fa = min(wk.fprev[j], 0.0)
     fb = wk.fcur[j]
-    side = 0
+    tol = 1e-12 * span
+    nxt = b - fb / _slope(j, wk.zeta, tau, t0, md, x, pt, wk)
     for it in range(200):
-        if b - a <= 1e-12 * span:
+        if b - a <= tol:
             break
-        if it >= 40 or it % 4 == 3 or fb - fa <= 0.0:
-            mid = 0.5 * (a + b)
-        else:
-            mid = b - fb * (b - a) / (fb - fa)
-            if not (a < mid < b):
-                mid = 0.5 * (a + b)
-        _state_at(mid, closed, md, wk, t0, pt, wk.ztmp)
+        if it >= 40 or (it >= 8 and it % 3 == 2):
+            nxt = 0.5 * (a + b)
+        elif not (a < nxt < b):
+            nxt = b - fb * (b - a) / (fb - fa) if fb - fa > 0.0 else 0.5 * (a + b)
+            if not (a < nxt < b):
+                nxt = 0.5 * (a + b)
+        _state_at(nxt, closed, md, wk, t0, pt, wk.ztmp)
         fm = _cond(j, wk.ztmp, md, x, pt, wk)
-        # bracket update shared with RK4's event refinement (its next point is not used: the
-        # rule above adds the bisection safeguard)
-        a, fa, b, fb, _, side = common.illinois(a, fa, b, fb, mid, fm, side)
+        if fm > 0.0:
+            b = nxt
+            fb = fm
+        else:
+            a = nxt
+            fa = fm
+        if b - a <= tol:
+            break
+        dx = -fm / _slope(j, wk.ztmp, nxt, t0, md, x, pt, wk)
+        if abs(dx) < 0.5 * tol:
+            dx += 0.5 * tol if fm <= 0.0 else -0.5 * tol
+        nxt = nxt + dx
     return b
 
 
@@ -575,7 +637,7 @@ def _ladder_check(m, tau, md, wk, pt):
     """Modal state into ``wk.zeta`` at the check ``tau``, one rung ``m`` after the last check:
     ``e^{lam_k tau}`` advanced by the rung's factor (``wk.el``), then the closed form in the
     interval's coefficients (:func:`_rate_bounds`)."""
-    eiw = np.exp(1j * pt.om * tau)
+    eiw = _eit(pt.om * tau)
     eiwc = np.conj(eiw)
     lad = md.ladder
     for k in range(md.nh):
@@ -594,7 +656,7 @@ def _decayed_rates(md, wk, x, pt):
     within a fraction of an interval, so the checks that follow are spaced by the slow motion
     (their number and cost: docs/performance.md)."""
     for k in range(md.nh):
-        wk.mag[k] = abs(wk.el[k])
+        wk.mag[k] = _cabs(wk.el[k])
     aS = md.aSVq
     for j in range(x.z.shape[0]):
         acc = 0.0

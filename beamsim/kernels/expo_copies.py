@@ -6,7 +6,10 @@ Every row (0: the drive, ``1 .. M``: the copies) is an ``expo`` trajectory with 
 scratch; all rows share the thread's pattern cache (one model: the point's), so a row whose
 slot another row's decomposition has taken looks its pattern up again.  Each row locates its
 own switches, so a copy's separation from the drive is that of two exact solutions of the
-piecewise-linear system up to the event-location tolerance.  The drive is never moved, so its
+piecewise-linear system up to the event-location tolerance (the drive's: the rows call
+``expo``'s own interval, check and refinement kernels, which numba compiles into this
+module's cached kernels: a change there must come with a change here, or a warm on-disk cache
+keeps the old code).  The drive is never moved, so its
 trajectory does not depend on the copies.
 
 **Stick/slip mismatches.**  An element's stick/slip state is memory: a copy can stay stuck
