@@ -112,9 +112,9 @@ def test_a_ten_thousand_point_grid_is_planned_by_a_dry_run_and_refused_without_o
     grid = {"grids": {"huge": {"axes": {"Omega": {"range": [1.25, 8.0], "num": 100},
                                         "f0_rel": {"range": [0.8, 3.0], "num": 100}},
                                "fixed": {"mu_s": 0.45, "mu_k": 0.3}}}}
-    # 1000 transient periods per point: estimated at 2.2 h on 2 cores (with 200, 4.3 h at results
-    # version 13's cost model but 58 min at version 14's faster expo: under the gate, so the run
-    # that should be refused started computing the 10,000 points)
+    # 1000 transient periods per point: estimated at 1.6 h on 2 cores at results version 15 (2.2 h
+    # at version 14; with 200, 4.3 h at version 13's cost model but 58 min at version 14's faster
+    # expo: under the gate, so the run that should be refused started computing the 10,000 points)
     work = setup_workdir(tmp_path / "huge", grid=grid, n_transient=1000, chunk_size=100)
     dry = snakemake(work, "-n", "regimes")
     assert dry.returncode == 0, dry.stderr[-2000:]
