@@ -21,7 +21,11 @@ from beamsim.point import prepare_point
 #: moved in the last bits) neither start reaches the chaotic set: from rest, the four grid
 #: neighbours' end states and two seeded perturbations, three attractors, an undetermined one
 #: (lambda_1 T 0.010, [-0.024, 0.043], broadband: a CONFLICT) and two tori (-0.027 and -0.015,
-#: intervals at or below the margin), 2026-11-27 on an AVX-512 host.
+#: intervals at or below the margin), 2026-11-27 on an AVX-512 host.  In version 15 (Newton
+#: refinement of the switches) three attractors again, all undetermined: rest, two neighbours
+#: and one perturbation on a set whose interval straddles the margin (0.22, [0.010, 0.42],
+#: broadband, K = 1.00), two neighbours on a torus-like set ([-0.043, 0.079]) and one
+#: perturbation on a CONFLICT set whose interval lies below the margin ([-0.024, -0.005]).
 CELL = dict(n_modes=2, mu_s=0.45, mu_k=0.3, p=1e-4, k_t=10.0, damping=0.0, interface_viscosity=0.0939,
             law="stick-slip", alpha1=0.005, alpha2=0.005, beta=0.4, bc="clamped-free",
             Omega=2.47698677388, f0_rel=2.61033899224)
