@@ -16,8 +16,9 @@ points placed where no crossing can have happened before them (a bound of their 
 derivative from the closed form, renewed at every check with the free modes' decay), on a
 ladder of spacings ``d_min 2^(m/3)`` whose factors
 ``e^{lam_k d}`` are cached with the decomposition (a check advances the exponentials by one
-multiplication); the earliest crossing is refined by Illinois with a bisection safeguard, the
-switches are applied and a new pattern starts.  The work of the load is integrated exactly;
+multiplication); the earliest crossing is refined by Newton steps inside its bracket (the
+slope from the interval's equation; regula falsi and bisection as safeguards), the switches
+are applied and a new pattern starts.  The work of the load is integrated exactly;
 the friction dissipation follows from the slip of the sliding elements; with damping the
 damping dissipation is the remainder of the energy identity.  Stick-slip law only.  Steps
 ``h`` only set the output grid and the largest spacing of the checks.
