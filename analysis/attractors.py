@@ -28,6 +28,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from scipy.spatial.distance import cdist
 
 from analysis.poincare import component_scales
 
@@ -37,7 +38,7 @@ __all__ = ["group_records", "record_distance"]
 def _nearest(a: np.ndarray, b: np.ndarray, same: bool = False) -> np.ndarray:
     """For every row of ``a`` the Chebyshev distance to the nearest row of ``b`` (excluding the
     row itself when ``same``)."""
-    d = np.max(np.abs(a[:, None, :] - b[None, :, :]), axis=2)
+    d = cdist(a, b, "chebyshev")
     if same:
         np.fill_diagonal(d, np.inf)
     return d.min(axis=1)

@@ -229,11 +229,16 @@ class PatternResult:
 
 def _class_means(x: NDArray[np.float64], m: int, offset: int = 0) -> NDArray[np.float64]:
     """Residue-class means ``P(k) = mean{x_i : (i + offset) = k mod m}``, shape ``(m, d)``."""
-    idx = (np.arange(x.shape[0]) + offset) % m
-    counts = np.bincount(idx, minlength=m)[:, None]
-    sums = np.zeros((m, x.shape[1]))
-    np.add.at(sums, idx, x)
-    return sums / counts
+    n, d = x.shape
+    q, r = divmod(n, m)
+    # row i = a m + j (j < m) is in class (j + offset) mod m: sum the whole cycles' rows as a
+    # (q, m, d) block, then the r rows left; each class summed in row order, as a running sum
+    by_slot = x[:q * m].reshape(q, m, d).sum(axis=0) if q else np.zeros((m, d))
+    by_slot[:r] += x[q * m:]
+    counts = np.full(m, float(q))
+    counts[:r] += 1.0
+    order = (np.arange(m) - offset) % m  # the slot j of class k
+    return by_slot[order] / counts[order, None]
 
 
 def periodic_pattern(

@@ -46,6 +46,15 @@ def _strictly_monotone(v: np.ndarray) -> int:
     return 0
 
 
+def _part_medians(v: np.ndarray, n_parts: int) -> np.ndarray:
+    """Medians of the ``n_parts`` consecutive parts of ``v`` that ``np.array_split`` makes (the
+    first ``len(v) mod n_parts`` parts one longer), each part's median as ``np.median`` of it."""
+    q, r = divmod(v.shape[0], n_parts)
+    long_parts = v[:r * (q + 1)].reshape(r, q + 1)
+    short_parts = v[r * (q + 1):].reshape(n_parts - r, q)
+    return np.concatenate([np.median(long_parts, axis=1), np.median(short_parts, axis=1)])
+
+
 def converging_period(x: np.ndarray, scales: np.ndarray, *, m_max: int = 32, n_parts: int = 8,
                       min_decay: float = 1.25, min_reps: int = 8) -> tuple[int, float] | None:
     """Smallest lag ``m <= m_max`` towards whose period the record converges (module docstring)
@@ -61,8 +70,7 @@ def converging_period(x: np.ndarray, scales: np.ndarray, *, m_max: int = 32, n_p
         if n - m < min_reps * n_parts:
             break
         d = np.max(np.abs(x[m:] - x[:-m]) / scales, axis=1)
-        parts = np.array_split(np.log(np.maximum(d, 1e-300)), n_parts)
-        med = np.array([np.median(p) for p in parts])
+        med = _part_medians(np.log(np.maximum(d, 1e-300)), n_parts)
         if med[0] < np.log(ROUNDOFF_DISTANCE):
             continue
         if _strictly_monotone(med) < 0 and med[0] - med[-1] > np.log(min_decay):
