@@ -53,7 +53,14 @@ def continuation_sweeps(points: Sequence[dict], numerics: Numerics | dict, *, ax
     the integrators as in the regime table: ``method`` (of the reference run) and
     ``lle_free_copy`` (of the Lyapunov stage's free copy; both name a Zeno fallback).
     """
-    from analysis.pipeline.stages import classify_points, lyapunov_runs, records_table, simulate_runs
+    from analysis.pipeline.stages import (
+        classify_points,
+        each_on_threads,
+        lyapunov_records,
+        records_table,
+        simulate_runs,
+    )
+    from beamsim.pattern_store import PatternStore
     from beamsim.simulate import prepare_point
 
     nm = as_numerics(numerics)
@@ -63,25 +70,31 @@ def continuation_sweeps(points: Sequence[dict], numerics: Numerics | dict, *, ax
     model = prepare_point(**points[0]).model
     n, nq = model.n, model.n_quad
     order = {"up": list(range(n_pts)), "down": list(range(n_pts - 1, -1, -1))}
-    prev: dict = {b: None for b in BRANCHES}
-    sims: dict = {}
-    starts: dict = {}
-    for step in range(n_pts):
-        batch = []
-        for b in BRANCHES:
-            k = order[b][step]
-            init = {} if prev[b] is None else state_params(prev[b], n, nq)
-            starts[(b, k)] = "continued" if init else "rest"
-            batch.append({"point_id": f"{b}{k:05d}", "params": dict(points[k]) | init})
-        for p, rec in zip(batch, simulate_runs(batch, nm, threads)):
-            b, k = p["point_id"][:-5], int(p["point_id"][-5:])
-            sims[(b, k)] = (p, rec)
-            prev[b] = rec["final_state"]
+    patterns = PatternStore()  # expo's decompositions, shared by both chains (a cost)
+
+    def chain(branch: dict) -> dict:
+        """One branch's points in its order, each started from the previous one's end state:
+        ``k -> (start, point, record)``."""
+        b, prev, out = branch["name"], None, {}
+        for k in order[b]:
+            init = {} if prev is None else state_params(prev, n, nq)
+            p = {"point_id": f"{b}{k:05d}", "params": dict(points[k]) | init}
+            rec = simulate_runs([p], nm, 1, patterns)[0]
+            out[k] = ("continued" if init else "rest", p, rec)
+            prev = rec["final_state"]
+        return out
+
+    # the two chains side by side, each on a thread of its own (a point's records depend on its
+    # own runs only, so this is what one batch of two per step gave, without its barrier)
+    sims = {(br["name"], k): v for br, runs in each_on_threads(chain, [{"name": b} for b in BRANCHES],
+                                                                   min(threads, 2))
+            for k, v in runs.items()}
     keys = [(b, k) for b in BRANCHES for k in range(n_pts)]
-    pts = [sims[key][0] for key in keys]
-    recs = [sims[key][1] for key in keys]
+    starts = {key: sims[key][0] for key in keys}
+    pts = [sims[key][1] for key in keys]
+    recs = [sims[key][2] for key in keys]
     sim_df = records_table(pts, recs)
-    lyap = lyapunov_runs(pts, sim_df.set_index("point_id"), nm, threads)
+    lyap = lyapunov_records(pts, sim_df.set_index("point_id"), nm, threads)
     lab = classify_points(sim_df, records_table(pts, lyap), lle_threshold=nm.lyapunov.margin)
     rows = []
     for (b, k), rec, ly, (_, c) in zip(keys, recs, lyap, lab.iterrows()):

@@ -67,7 +67,7 @@ def point_attractors(params: dict, starts: Sequence[dict], numerics: Numerics | 
     ``reason``, ``poincare_state`` (the representative's record).  Starts that diverged form one
     row labelled ``diverged``.
     """
-    from analysis.pipeline.stages import classify_points, lyapunov_runs, records_table, simulate_runs
+    from analysis.pipeline.stages import classify_points, lyapunov_records, records_table, simulate_runs
     from analysis.regimes import DIVERGED
 
     nm = as_numerics(numerics)
@@ -79,7 +79,7 @@ def point_attractors(params: dict, starts: Sequence[dict], numerics: Numerics | 
     rows = []
     if reps:
         sim_df = records_table(reps, [sims[g[0]] for g in groups])
-        lyap = lyapunov_runs(reps, sim_df.set_index("point_id"), nm, threads)
+        lyap = lyapunov_records(reps, sim_df.set_index("point_id"), nm, threads)
         lab = classify_points(sim_df, records_table(reps, lyap), lle_threshold=nm.lyapunov.margin)
         for a, (g, (_, s), (_, c), ly) in enumerate(zip(groups, sim_df.iterrows(), lab.iterrows(), lyap)):
             T = 2.0 * np.pi / float(s["omega"])

@@ -156,7 +156,8 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
              steps_per_period: int | None = None, step_factor: float = 0.5,
              n_threads: int | None = None, plan: BlockPlan | None = None,
              free_method: str = "rk4", free_e0: float | None = None,
-             free_steps: int | None = None, ladder_method: str = "rk4") -> list[BeamLLE]:
+             free_steps: int | None = None, ladder_method: str = "rk4",
+             pattern_store=None) -> list[BeamLLE]:
     """Stefanski and Benettin estimates of ``lambda_1`` for each point, and with ``plan`` the
     block statistics of a long Benettin record.
 
@@ -203,6 +204,9 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
         at a step end, which leaves that trajectory behind in time) is run again as with
         ``free_method="rk4"`` (``free_e0 = e0``); its :attr:`BeamLLE.free_copy` says so
         (:data:`ZENO_FALLBACK`).
+    pattern_store : the ``expo`` copies' stick-pattern decompositions
+        (:class:`beamsim.pattern_store.PatternStore`; default: one for this call), a cost, not
+        a result: hand one store to the calls of one model's points.
     """
     x_start = np.asarray(x_start, dtype=float)
     scales = np.asarray(scales, dtype=float)
@@ -214,11 +218,13 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
         raise ValueError(f"beam_lle: ladder_method must be 'rk4', or 'expo' with free_method='expo'; "
                          f"got {ladder_method!r} with {free_method!r}")
     out, guarded = _estimates(prepared, x_start, scales, free_method=free_method, free_e0=free_e0,
-                              free_steps=free_steps, ladder_method=ladder_method, **kw)
+                              free_steps=free_steps, ladder_method=ladder_method,
+                              pattern_store=pattern_store, **kw)
     if guarded.any():  # only expo has the guard: these points as with free_method="rk4"
         idx = np.flatnonzero(guarded)
         rerun, _ = _estimates([prepared[i] for i in idx], x_start[idx], scales[idx], free_method="rk4",
-                              free_e0=None, free_steps=None, ladder_method="rk4", **kw)
+                              free_e0=None, free_steps=None, ladder_method="rk4", **kw,
+                              pattern_store=None)
         for i, est in zip(idx, rerun):
             est.free_copy = ZENO_FALLBACK
             out[i] = est
@@ -230,7 +236,7 @@ def _estimates(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_per
                band: tuple[float, float], with_benettin: bool, zero_first: bool, seed_ladder: bool,
                steps_per_period: int | None, step_factor: float, n_threads: int | None,
                plan: BlockPlan | None, free_method: str, free_e0: float | None,
-               free_steps: int | None, ladder_method: str) -> tuple[list, np.ndarray]:
+               free_steps: int | None, ladder_method: str, pattern_store) -> tuple[list, np.ndarray]:
     """:func:`beam_lle` with the free copy on ``free_method`` and the ladder on
     ``ladder_method`` whatever happens: the estimates (``None`` for a point whose ``expo`` pair
     or ``expo`` ladder met the Zeno guard) and which points did."""
@@ -248,9 +254,10 @@ def _estimates(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_per
     free_e0 = e0 if free_e0 is None else float(free_e0)
     free_kw = dict(run_kw, e0=free_e0, method=free_method)
     if free_method == "expo":
-        # one store for every free run of the call: the points' drives and copies share
-        # their stick-pattern decompositions (a cost, not a result)
-        free_kw.update(steps_per_period=free_steps, pattern_store=PatternStore())
+        # one store for every free run of the call (or the caller's): the points' drives and
+        # copies share their stick-pattern decompositions (a cost, not a result)
+        free_kw.update(steps_per_period=free_steps,
+                       pattern_store=PatternStore() if pattern_store is None else pattern_store)
     free_offs = offs if free_e0 == e0 else [initial_offset(prepared[i], scales[i], free_e0, seed)
                                               for i in range(P)]
     ladder_kw, ladder_offs = (free_kw, free_offs) if ladder_method == "expo" else (run_kw, offs)

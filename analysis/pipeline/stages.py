@@ -255,17 +255,35 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
     return out
 
 
+def each_on_threads(fn: Callable[[dict], dict], items: Sequence[dict],
+                    threads: int) -> Iterator[tuple[dict, dict]]:
+    """``(item, fn(item))`` for every item, ``threads`` items at a time on one pool (in the
+    calling thread if ``threads`` is 1), in the order they finish.  One pool for all the items
+    and no barrier between batches: an item that runs long holds one thread, not all, and one
+    item's Python overlaps another's kernels (which release the GIL).  ``fn`` must give an
+    item's result from that item alone (then the results are those of any batching)."""
+    from concurrent.futures import ThreadPoolExecutor, as_completed
+
+    if threads <= 1:
+        yield from ((p, fn(p)) for p in items)
+        return
+    pool = ThreadPoolExecutor(max_workers=threads)
+    try:
+        futures = {pool.submit(fn, p): p for p in items}
+        for f in as_completed(futures):
+            yield futures[f], f.result()
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
 def simulate_points(points: Sequence[dict], numerics: Numerics | dict, store_root: str,
                     threads: int = 1) -> pd.DataFrame:
     """Stage 1: time integration; one row per point with its Poincare samples.
 
     Each point runs all its runs (:func:`simulate_runs`: the adaptive transient, the
-    continuation check) on one thread, ``threads`` points at a time, so a thread never waits
-    for another point's continuation, and one point's tests (Python) overlap another's kernel
-    (which releases the GIL).  A point's record depends on its own runs only, so this is the
-    record of any batching, to the bit."""
-    from concurrent.futures import ThreadPoolExecutor, as_completed
-
+    continuation check) on one thread, ``threads`` points at a time (:func:`each_on_threads`),
+    so a thread never waits for another point's continuation.  A point's record depends on its
+    own runs only, so this is the record of any batching, to the bit."""
     from beamsim.pattern_store import PatternStore
 
     store = PointStore(store_root, "simulate")
@@ -275,21 +293,7 @@ def simulate_points(points: Sequence[dict], numerics: Numerics | dict, store_roo
     def one(p: dict) -> dict:
         return simulate_runs([p], nm, 1, patterns)[0]
 
-    def compute(todo: list[dict]) -> Iterator[tuple[dict, dict]]:
-        if threads <= 1:
-            yield from ((p, one(p)) for p in todo)
-            return
-        # one pool for the whole chunk, no barrier between batches: a point that runs long
-        # (a long adaptive transient, an RK4 fallback) holds one thread, not both
-        pool = ThreadPoolExecutor(max_workers=threads)
-        try:
-            futures = {pool.submit(one, p): p for p in todo}
-            for f in as_completed(futures):
-                yield futures[f], f.result()
-        finally:
-            pool.shutdown(wait=True, cancel_futures=True)
-
-    recs = _cached_stage(points, store, compute, stage="simulate")
+    recs = _cached_stage(points, store, lambda todo: each_on_threads(one, todo, threads), stage="simulate")
     return records_table(points, recs)
 
 
@@ -323,10 +327,14 @@ def poincare_array(value) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------- lyapunov
-def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: int) -> list[dict]:
+def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: int,
+                  pattern_store=None) -> list[dict]:
     """Stefanski and Benettin estimates (analysis.lyapunov.beam), the block statistics of the
     long Benettin record and nolds for one batch; ``sim``: the simulate records indexed by
-    ``point_id``."""
+    ``point_id``; ``pattern_store``: the ``expo`` copies' stick-pattern decompositions
+    (:class:`beamsim.pattern_store.PatternStore`; default: one per ``beam_lle`` call), a cost,
+    not a result.  A point's record depends on its own runs only (any batch gives it, to the
+    bit); :func:`lyapunov_each` runs the points one by one on a pool."""
     from analysis.lyapunov.beam import attractor_scale, beam_lle, response_scale
     from beamsim.simulate import prepare_point
 
@@ -373,7 +381,8 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
                            step_factor=lopt.step_factor, n_threads=threads, plan=plan,
                            free_method=method, free_steps=spp or None,
                            free_e0=lopt.expo_e0 if method == "expo" else None,
-                           ladder_method="expo" if lopt.ladder == "expo" and method == "expo" else "rk4")
+                           ladder_method="expo" if lopt.ladder == "expo" and method == "expo" else "rk4",
+                           pattern_store=pattern_store)
             for i, est in zip(subset, res):
                 if i in fell_back and asked[i] == "expo":
                     est.free_copy = ZENO_FALLBACK
@@ -463,20 +472,32 @@ def lyapunov_points(points: Sequence[dict], simulated: pd.DataFrame, numerics: N
     store = PointStore(store_root, "lyapunov")
     sim = simulated.set_index("point_id")
     nm = as_numerics(numerics)
-
-    def compute(todo: list[dict]) -> Iterator[tuple[dict, dict]]:
-        size = max(2 * threads, 25)  # batched: the kernels thread over a batch's points
-        for start in range(0, len(todo), size):
-            batch = todo[start:start + size]
-            groups: dict = {}
-            for i, p in enumerate(batch):
-                groups.setdefault((p["params"].get("n_modes"), p["params"].get("n_quad")), []).append(i)
-            for idx in groups.values():
-                part = [batch[i] for i in idx]
-                yield from zip(part, lyapunov_runs(part, sim, nm, threads))
-
-    recs = _cached_stage(points, store, compute, stage="lyapunov")
+    recs = _cached_stage(points, store, lambda todo: lyapunov_each(todo, sim, nm, threads), stage="lyapunov")
     return records_table(points, recs)
+
+
+def lyapunov_each(points: Sequence[dict], sim: pd.DataFrame, nm: Numerics,
+                  threads: int) -> Iterator[tuple[dict, dict]]:
+    """:func:`lyapunov_runs` of every point on its own, ``threads`` points at a time
+    (:func:`each_on_threads`), yielding ``(point, record)`` as each is done; ``sim``: the
+    simulate records indexed by ``point_id``.  A point's Stefanski ladder runs its coupled
+    copies as one kernel task, so a batch of points on several threads left all but one idle
+    while each point searched (and during the batch's Python: exemption tests, nolds); one
+    point per task keeps every thread busy.  The ``expo`` copies share one pattern store."""
+    from beamsim.pattern_store import PatternStore
+
+    patterns = PatternStore()
+
+    def one(p: dict) -> dict:
+        return lyapunov_runs([p], sim, nm, 1, pattern_store=patterns)[0]
+
+    return each_on_threads(one, points, threads)
+
+
+def lyapunov_records(points: Sequence[dict], sim: pd.DataFrame, nm: Numerics, threads: int) -> list[dict]:
+    """:func:`lyapunov_each`'s records in the order of ``points`` (whose ids must differ)."""
+    done = {p["point_id"]: rec for p, rec in lyapunov_each(points, sim, nm, threads)}
+    return [done[p["point_id"]] for p in points]
 
 
 # ----------------------------------------------------------------------------- classify
