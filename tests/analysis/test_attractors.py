@@ -68,3 +68,19 @@ def test_rejects_bad_records() -> None:
     with pytest.raises(ValueError, match="records"):
         group_records([np.zeros((10, 2)), np.zeros((10, 3))])
     assert group_records([]) == []
+
+
+def test_record_distance_is_the_brute_force_one() -> None:
+    """The nearest-neighbour distances (``cdist``) are those of the definition, computed on the
+    whole ``(n, n, d)`` array of differences, to the bit."""
+    from analysis.attractors import _nearest
+
+    rng = np.random.default_rng(3)
+    a, b = rng.standard_normal((70, 6)), rng.standard_normal((50, 6)) * 2.0
+    brute = np.max(np.abs(a[:, None, :] - b[None, :, :]), axis=2)
+    assert _nearest(a, b).tobytes() == brute.min(axis=1).tobytes()
+    own = np.max(np.abs(a[:, None, :] - a[None, :, :]), axis=2)
+    np.fill_diagonal(own, np.inf)
+    assert _nearest(a, a, same=True).tobytes() == own.min(axis=1).tobytes()
+    twice = np.vstack([a[:5], a[:5]])  # repeated samples: the nearest other one is at distance 0
+    assert not _nearest(twice, twice, same=True).any()

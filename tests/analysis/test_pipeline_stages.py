@@ -146,3 +146,28 @@ def test_the_ladder_setting_reaches_the_stefanski_column_only(tmp_path):
     assert a["lle_stefanski_verdict"][0].startswith("chaotic"), a["lle_stefanski_verdict"][0]
     assert b["lle_stefanski_verdict"][0].startswith("chaotic"), b["lle_stefanski_verdict"][0]
     assert a["lle_stefanski"][0] != b["lle_stefanski"][0]
+
+
+def test_a_points_lyapunov_record_does_not_depend_on_its_batch(tmp_path):
+    """The Lyapunov stage runs every point as a task of its own on the job's threads
+    (``lyapunov_each``); a point's record is the one a batch of points gives
+    (``lyapunov_runs``, every kernel threaded over the batch), to the bit, on one thread or
+    two: a chaotic two-mode point (Stefanski ladder, long record) and a periodic one."""
+    from beam_copies import CHAOTIC_2MODES as chaotic
+
+    from analysis.pipeline.config import as_numerics
+    from analysis.pipeline.stages import lyapunov_records, lyapunov_runs
+
+    base = {"n_transient": 60, "n_record": 128, "n_transient_max": 60, "continuation_check": False,
+            "lyapunov": {"n_periods": 20, "block_periods": 5, "burn_in": 1, "min_blocks": 2, "max_blocks": 3}}
+    pts = _payload([chaotic, chaotic | {"f0_rel": 0.9 * chaotic.get("f0_rel", 2.0)}], base)
+    sim = simulate_points(pts, base, str(tmp_path), threads=2).set_index("point_id")
+    nm = as_numerics(base)
+    batch = lyapunov_runs(pts, sim, nm, 2)
+    for threads in (1, 2):
+        each = lyapunov_records(pts, sim, nm, threads)
+        for b, e in zip(batch, each):
+            assert b.keys() == e.keys()
+            for col in b:
+                assert np.asarray(b[col]).tobytes() == np.asarray(e[col]).tobytes(), (threads, col)
+    assert batch[0]["lle_stefanski_verdict"].startswith("chaotic"), batch[0]["lle_stefanski_verdict"]

@@ -238,3 +238,30 @@ def test_a_record_kept_after_a_further_transient_is_checked_again(monkeypatch) -
     out = simulate_runs([{"point_id": "p", "params": params}], nm, 1)[0]
     assert runs == [(3, 1), (0, 1), (3, 1), (0, 1)], runs
     assert out["n_transient_used"] == 2 * 3 + 3 * 5 and out["continuation_reason"] == ""
+
+
+def test_part_medians_are_those_of_array_split() -> None:
+    """``converging_period``'s part medians (equal-length parts in one call) are ``np.median``
+    of each part ``np.array_split`` makes, to the bit, whatever the remainder."""
+    from analysis.transients import _part_medians
+
+    v = np.log(np.random.default_rng(5).random(250))
+    for n in (250, 249, 243, 241, 64):
+        for parts in (8, 7, 5):
+            ref = np.array([np.median(p) for p in np.array_split(v[:n], parts)])
+            assert _part_medians(v[:n], parts).tobytes() == ref.tobytes(), (n, parts)
+
+
+def test_class_means_are_those_of_the_definition() -> None:
+    """``periodic_pattern``'s residue-class means (a reshaped sum) are the running sums of the
+    rows of each class over their count, to the bit, for any offset and remainder."""
+    from analysis.poincare import _class_means
+
+    x = np.random.default_rng(6).standard_normal((257, 5)) * 1e3
+    for m in (2, 3, 5, 7, 32):
+        for offset in (0, 1, 128):
+            idx = (np.arange(x.shape[0]) + offset) % m
+            sums = np.zeros((m, x.shape[1]))
+            np.add.at(sums, idx, x)
+            ref = sums / np.bincount(idx, minlength=m)[:, None]
+            assert _class_means(x, m, offset).tobytes() == ref.tobytes(), (m, offset)
