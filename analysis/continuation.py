@@ -72,10 +72,10 @@ def continuation_sweeps(points: Sequence[dict], numerics: Numerics | dict, *, ax
     order = {"up": list(range(n_pts)), "down": list(range(n_pts - 1, -1, -1))}
     patterns = PatternStore()  # expo's decompositions, shared by both chains (a cost)
 
-    def chain(branch: dict) -> dict:
-        """One branch's points in its order, each started from the previous one's end state:
+    def chain(b: str) -> dict:
+        """Branch ``b``'s points in its order, each started from the previous one's end state:
         ``k -> (start, point, record)``."""
-        b, prev, out = branch["name"], None, {}
+        prev, out = None, {}
         for k in order[b]:
             init = {} if prev is None else state_params(prev, n, nq)
             p = {"point_id": f"{b}{k:05d}", "params": dict(points[k]) | init}
@@ -86,8 +86,7 @@ def continuation_sweeps(points: Sequence[dict], numerics: Numerics | dict, *, ax
 
     # the two chains side by side, each on a thread of its own (a point's records depend on its
     # own runs only, so this is what one batch of two per step gave, without its barrier)
-    sims = {(br["name"], k): v for br, runs in each_on_threads(chain, [{"name": b} for b in BRANCHES],
-                                                                   min(threads, 2))
+    sims = {(b, k): v for b, runs in each_on_threads(chain, BRANCHES, min(threads, 2))
             for k, v in runs.items()}
     keys = [(b, k) for b in BRANCHES for k in range(n_pts)]
     starts = {key: sims[key][0] for key in keys}

@@ -12,6 +12,7 @@ import logging
 import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import replace
+from typing import TypeVar
 
 import numpy as np
 import pandas as pd
@@ -21,6 +22,8 @@ from analysis.pipeline.store import PointStore
 from beamsim.results import ZENO_FALLBACK
 
 log = logging.getLogger("regimes")
+Item = TypeVar("Item")
+Result = TypeVar("Result")
 
 
 def _cached_stage(points: Sequence[dict], store: PointStore,
@@ -255,8 +258,8 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
     return out
 
 
-def each_on_threads(fn: Callable[[dict], dict], items: Sequence[dict],
-                    threads: int) -> Iterator[tuple[dict, dict]]:
+def each_on_threads(fn: Callable[[Item], Result], items: Sequence[Item],
+                    threads: int) -> Iterator[tuple[Item, Result]]:
     """``(item, fn(item))`` for every item, ``threads`` items at a time on one pool (in the
     calling thread if ``threads`` is 1), in the order they finish.  One pool for all the items
     and no barrier between batches: an item that runs long holds one thread, not all, and one
