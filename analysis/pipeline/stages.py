@@ -57,14 +57,16 @@ def compile_kernels(stage: str, methods: Sequence[str] = ("expo",), threads: int
     """Compile (or load from numba's on-disk cache) the kernels of one pipeline stage by running
     them once on a one-mode point for a few forcing periods: ``"simulate"`` compiles the reference
     integrators in ``methods``, ``"lyapunov"`` the RK4 drive/copy kernel
-    (:func:`beamsim.coupled_copies.run_copies`; the Stefanski ladder's) and the free copies'
-    integrators in ``methods`` (``expo``: :mod:`beamsim.kernels.expo_copies`); with ``rigid``
-    also the rigid stick's kernels
-    (RK4 and copies).  Compilation is single-threaded (its time on a fresh install:
-    docs/pipeline.md); as separate one-thread jobs the two stages compile side by side instead
-    of each delaying its first chunk.  The chunk jobs then load every kernel from the cache, so
-    none of them runs a kernel compiled in its own process (whose results can differ from the
-    cached kernel's in the last bits: docs/reliability.md).  Returns the wall time [s]."""
+    (:func:`beamsim.coupled_copies.run_copies`; the fallback, and the Stefanski ladder's with
+    ``numerics.lyapunov.ladder: rk4``) first, then the free copies' and the ladder's integrators
+    in ``methods`` (``expo``: :mod:`beamsim.kernels.expo_copies`); with ``rigid`` also the rigid
+    stick's kernels (RK4 and copies).  Compilation is single-threaded (its time on a fresh
+    install: docs/performance.md, "Compilation"); as separate one-thread jobs the two stages
+    compile side by side, and in this order each loads from numba's cache the callees the other
+    has compiled meanwhile (the ``expo`` copies ``expo``'s, the RK4 reference the RK4 copies').
+    The chunk jobs then load every kernel from the cache, so none of them runs a kernel
+    compiled in its own process (whose results can differ from the cached kernel's in the last
+    bits: docs/reliability.md).  Returns the wall time [s]."""
     from beamsim.simulate import prepare_point, simulate_batch
 
     t0 = time.perf_counter()
@@ -84,8 +86,13 @@ def compile_kernels(stage: str, methods: Sequence[str] = ("expo",), threads: int
             start = np.zeros((1, 2 * n + 2 * nq))  # at rest, every element stuck
             # the forced response's scale
             scale = attractor_scale(np.zeros((2, 2 * n)), response_scale(pp), pp.omega)
-            for free in sorted({"rk4", *meths} if pt.get("law") != "rigid-stick" else {"rk4"}):
-                beam_lle([pp], start, scale[None], n_periods=4, n_threads=threads, free_method=free)
+            # the RK4 copies first: meanwhile the simulate stage's job compiles ``expo``, whose
+            # callees the ``expo`` copies then load from numba's cache, as that job's RK4 kernel
+            # loads the RK4 copies' (both jobs' wall time: docs/performance.md, "Compilation")
+            frees = ["rk4"] if pt.get("law") == "rigid-stick" else ["rk4", *sorted(set(meths) - {"rk4"})]
+            for free in frees:
+                beam_lle([pp], start, scale[None], n_periods=4, n_threads=threads, free_method=free,
+                         ladder_method=free)
         else:
             raise ValueError(f"stage must be 'simulate' or 'lyapunov', got {stage!r}")
     return time.perf_counter() - t0

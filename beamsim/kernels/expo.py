@@ -910,17 +910,25 @@ def _step(t0, t_end, slot, cache, wk, x, pt, tally):
             guard = 0
 
 
-@njit(cache=True)
-def expo_point(p, pt, sched, x0, n_sub, cache, model, out):
-    """Integrate point ``p`` (the step contract of :mod:`beamsim.kernels`); ``n_sub``: checks
-    per step at least; ``cache``: the :data:`PatternCache` it uses (and may fill), ``model``:
-    the key of the point's model (:func:`use_model`).  The result does not depend on what the
-    cache holds: a decomposition found there is the one the point would compute."""
-    x, tally, e0 = common.start_point(p, x0, pt, sched, out)
-    use_model(cache, model)
+@njit(cache=True, nogil=True)
+def run_point(stk, steps, n_sub, models, out, cache, p):
+    """Integrate point ``p`` of a batch (:data:`~beamsim.kernels.bundles.PointStack` with the
+    full damping matrix; the step contract of :mod:`beamsim.kernels`; an item of
+    :func:`beamsim.kernels.thread_pool.run_items` with the calling thread's ``cache``):
+    ``n_sub``: checks per step at least; ``cache``: the :data:`PatternCache` it uses (and may
+    fill), ``models[p]``: the key of the point's model (:func:`use_model`).  The result does not
+    depend on what the cache holds: a decomposition found there is the one the point would
+    compute.  (One function, not a wrapper around a point kernel: numba optimises and
+    generates the machine code of every callee again inside each caller, docs/performance.md,
+    "Compilation".)"""
+    pt = point_at(stk, p, False)
+    sched = schedule_at(steps, p)
+    x, tally, e0 = common.start_point(p, stk.x0[p], pt, sched, out)
+    use_model(cache, models[p])
     wk = new_scratch(pt, n_sub, np.zeros(N_COUNTERS, np.int64))
     n_per = sched.n_per
-    slot = -1
+    # int64 from the start: a literal -1 would have numba compile _step once more for it
+    slot = np.int64(-1)
     t0 = 0.0
     for step in range((sched.n_trans + sched.n_rec) * n_per):
         k_step = step + 1
@@ -938,12 +946,3 @@ def expo_point(p, pt, sched, x0, n_sub, cache, model, out):
     out.flags[p, FLAG_N_EVENTS] = wk.cnt[_N_EVENTS]
     out.flags[p, FLAG_N_CHECKS] = wk.cnt[_N_CHECKS]
     out.flags[p, FLAG_N_ZENO] = wk.cnt[_N_ZENO]
-
-
-@njit(cache=True, nogil=True)
-def run_point(stk, steps, n_sub, models, out, cache, p):
-    """expo on point ``p`` of a batch (full damping matrix; an item of
-    :func:`beamsim.kernels.thread_pool.run_items` with the calling thread's ``cache``);
-    ``models[p]``: the key of point ``p``'s model."""
-    expo_point(p, point_at(stk, p, False), schedule_at(steps, p), stk.x0[p], n_sub, cache,
-               models[p], out)

@@ -136,7 +136,7 @@ def _drive_step(t0, t_end, slot, cache, wk, x, pt, tally, log):
 def _drive_interval(t, log):
     """Index of the drive's logged interval that holds time ``t`` (the last one starting at
     or before it: a switch at ``t`` belongs to the interval it starts)."""
-    k = 0
+    k = np.int64(0)  # not a literal 0, for which numba would compile the callers' callees again
     for i in range(1, log.count[0]):
         if log.t[i] <= t:
             k = i
@@ -351,21 +351,32 @@ def _new_rows(x_start, spec, c0, c1, n, nq):
                 np.full(R, -1, np.int64), np.full((R, nq), -1.0))
 
 
-@njit(cache=True)
-def expo_copies_task(p, c0, c1, pt, sch, x_start, spec, band, opts, cache, out):
-    """Integrate point ``p``'s drive with its free copies ``c0 .. c1 - 1`` for
-    ``sch.n_periods`` periods of ``sch.n_per`` steps (the output grid of ``expo``: the copies
-    are measured at step ends), writing ``ln eps`` at the period boundaries into
-    ``log_err[p, c0:c1]`` (``nan``: the drive diverged; ``+inf``: the copy did) and the end
-    states ``(q, v, z, mode)`` into ``final`` as :func:`beamsim.kernels.copies.copies_task`
-    does, and into ``zeno[p, r]`` (rows as ``final``'s) the number of output steps that the
-    Zeno guard ended (row 0, the drive: only by the task with ``c0 = 0``).  ``opts``:
-    :data:`ExpoCopyOptions`; ``cache``: the pattern cache every row uses; ``out``:
-    :data:`ExpoCopyOutputs`."""
+@njit(cache=True, nogil=True)
+def run_task(tasks, stk, steps, starts, specs, band, options, out, cache, item):
+    """Task ``item`` ``(p, c0, c1)`` of ``tasks`` (an item of
+    :func:`beamsim.kernels.thread_pool.run_items` with the calling thread's pattern ``cache``;
+    bundles stacked over the points as in :func:`beamsim.kernels.copies.run_task`,
+    ``opts.tau_a``, ``opts.model`` per point): integrate point ``p``'s drive with its free
+    copies ``c0 .. c1 - 1`` for ``sch.n_periods`` periods of the point's ``n_per`` steps (the
+    output grid of ``expo``: the copies are measured at step ends), writing ``ln eps`` at the
+    period boundaries into ``log_err[p, c0:c1]`` (``nan``: the drive diverged; ``+inf``: the
+    copy did) and the end states ``(q, v, z, mode)`` into ``final`` as
+    :func:`beamsim.kernels.copies.copies_task` does, and into ``zeno[p, r]`` (rows as
+    ``final``'s) the number of output steps that the Zeno guard ended (row 0, the drive: only
+    by the task with ``c0 = 0``).  ``cache``: the pattern cache every row uses; ``out``:
+    :data:`ExpoCopyOutputs`.  The point carries its full damping matrix (the interface dashpot
+    included), as ``expo``'s reference runs do.  (One function, not a wrapper around a task
+    kernel: numba optimises and generates the machine code of every callee again inside each
+    caller, docs/performance.md, "Compilation".)"""
+    p, c0, c1 = tasks[item, 0], tasks[item, 1], tasks[item, 2]
+    pt = point_at(stk, p, False)
+    sch = CopySchedule(steps.h[p], steps.n_per[p], steps.n_periods, steps.div_limit[p])
+    spec = CopySpec(specs.offsets[p], specs.d[p], specs.renorm_period[p], specs.inv_scale[p])
+    opts = ExpoCopyOptions(options.n_sub, options.tau_a[p], options.model[p])
     log_err, final, zeno = out
     n = pt.Mm.shape[0]
     nq = pt.S.shape[0]
-    rows = _new_rows(x_start, spec, c0, c1, n, nq)
+    rows = _new_rows(starts[p], spec, c0, c1, n, nq)
     R = c1 - c0 + 1
     expo.use_model(cache, opts.model)
     cnts = (np.zeros(expo.N_COUNTERS, np.int64), np.zeros(expo.N_COUNTERS, np.int64))
@@ -425,17 +436,3 @@ def expo_copies_task(p, c0, c1, pt, sch, x_start, spec, band, opts, cache, out):
             dst[2 * n + nq + j] = rows.MODE[r, j]
 
 
-@njit(cache=True, nogil=True)
-def run_task(tasks, stk, sch, x_start, spec, band, opts, out, cache, k):
-    """Task ``k`` ``(point, first copy, end copy)`` of ``tasks`` (an item of
-    :func:`beamsim.kernels.thread_pool.run_items` with the calling thread's pattern ``cache``);
-    bundles stacked over the points as in :func:`beamsim.kernels.copies.run_task`
-    (``opts.tau_a``, ``opts.model`` per point), ``out``: :data:`ExpoCopyOutputs`.  The point
-    carries its full damping matrix (the interface dashpot included), as ``expo``'s reference
-    runs do."""
-    p = tasks[k, 0]
-    expo_copies_task(p, tasks[k, 1], tasks[k, 2], point_at(stk, p, False),
-                     CopySchedule(sch.h[p], sch.n_per[p], sch.n_periods, sch.div_limit[p]),
-                     x_start[p], CopySpec(spec.offsets[p], spec.d[p], spec.renorm_period[p],
-                                          spec.inv_scale[p]), band,
-                     ExpoCopyOptions(opts.n_sub, opts.tau_a[p], opts.model[p]), cache, out)
