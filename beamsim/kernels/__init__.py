@@ -41,10 +41,12 @@ A point kernel ``_<name>_point(p, pt, sched, x0, out, ...)`` integrates point ``
 4. finish with :func:`beamsim.kernels.common.final_flags` (slip indicators, final state).
 
 An item kernel ``run_point(..., p)`` (``nogil``) runs the point kernel on point ``p`` of a
-batch, and :func:`beamsim.kernels.thread_pool.run_items` hands the points to a pool of
-threads; each point's arithmetic is independent of the others, so results do not depend on the
-number of threads.  To add an integrator: write its module here, add its batch runner to the
-method table of
-:mod:`beamsim.simulate` (``METHODS``), give its default steps per period in
+batch (``expo``'s is the point kernel itself: numba optimises and generates the machine code
+of a callee's whole call tree again inside each caller, so a wrapper around a large kernel
+costs seconds of compilation, docs/performance.md, "Compilation"), and
+:func:`beamsim.kernels.thread_pool.run_items` hands the points to a pool of threads; each
+point's arithmetic is independent of the others, so results do not depend on the number of
+threads.  To add an integrator: write its module here, add its batch runner to the method
+table of :mod:`beamsim.simulate` (``METHODS``), give its default steps per period in
 :func:`beamsim.point.period_steps`, and test it against the RK4 reference (tests/beamsim).
 """
