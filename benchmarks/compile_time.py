@@ -32,10 +32,9 @@ import time
 STAGES = {"simulate": ("expo", "rk4"), "lyapunov": ("expo",)}
 
 _CHILD = """
-import sys, time
+import sys
 from numba.core.registry import CPUDispatcher
 from analysis.pipeline.stages import compile_kernels
-import beamsim.kernels as K
 stage, methods = sys.argv[1], tuple(sys.argv[2].split(","))
 t = compile_kernels(stage, methods)
 multi = []

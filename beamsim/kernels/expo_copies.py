@@ -136,7 +136,7 @@ def _drive_step(t0, t_end, slot, cache, wk, x, pt, tally, log):
 def _drive_interval(t, log):
     """Index of the drive's logged interval that holds time ``t`` (the last one starting at
     or before it: a switch at ``t`` belongs to the interval it starts)."""
-    k = np.int64(0)  # not a literal 0, for which numba would compile the callers' callees again
+    k = np.int64(0)  # int64 from the start: a literal 0 would have numba compile _drive_modes twice
     for i in range(1, log.count[0]):
         if log.t[i] <= t:
             k = i
@@ -355,11 +355,12 @@ def _new_rows(x_start, spec, c0, c1, n, nq):
 def run_task(tasks, stk, steps, starts, specs, band, options, out, cache, item):
     """Task ``item`` ``(p, c0, c1)`` of ``tasks`` (an item of
     :func:`beamsim.kernels.thread_pool.run_items` with the calling thread's pattern ``cache``;
-    bundles stacked over the points as in :func:`beamsim.kernels.copies.run_task`,
-    ``opts.tau_a``, ``opts.model`` per point): integrate point ``p``'s drive with its free
-    copies ``c0 .. c1 - 1`` for ``sch.n_periods`` periods of the point's ``n_per`` steps (the
-    output grid of ``expo``: the copies are measured at step ends), writing ``ln eps`` at the
-    period boundaries into ``log_err[p, c0:c1]`` (``nan``: the drive diverged; ``+inf``: the
+    the schedule ``steps``, start states ``starts``, copy specs ``specs`` and options
+    ``options`` (:data:`ExpoCopyOptions`; ``tau_a`` and ``model`` per point) stacked over the
+    points as in :func:`beamsim.kernels.copies.run_task`): integrate point ``p``'s drive with
+    its free copies ``c0 .. c1 - 1`` for ``steps.n_periods`` periods of the point's ``n_per``
+    steps (the output grid of ``expo``: the copies are measured at step ends), writing ``ln
+    eps`` at the period boundaries into ``log_err[p, c0:c1]`` (``nan``: the drive diverged; ``+inf``: the
     copy did) and the end states ``(q, v, z, mode)`` into ``final`` as
     :func:`beamsim.kernels.copies.copies_task` does, and into ``zeno[p, r]`` (rows as
     ``final``'s) the number of output steps that the Zeno guard ended (row 0, the drive: only
