@@ -250,18 +250,3 @@ def test_part_medians_are_those_of_array_split() -> None:
         for parts in (8, 7, 5):
             ref = np.array([np.median(p) for p in np.array_split(v[:n], parts)])
             assert _part_medians(v[:n], parts).tobytes() == ref.tobytes(), (n, parts)
-
-
-def test_class_means_are_those_of_the_definition() -> None:
-    """``periodic_pattern``'s residue-class means (a reshaped sum) are the running sums of the
-    rows of each class over their count, to the bit, for any offset and remainder."""
-    from analysis.poincare import _class_means
-
-    x = np.random.default_rng(6).standard_normal((257, 5)) * 1e3
-    for m in (2, 3, 5, 7, 32):
-        for offset in (0, 1, 128):
-            idx = (np.arange(x.shape[0]) + offset) % m
-            sums = np.zeros((m, x.shape[1]))
-            np.add.at(sums, idx, x)
-            ref = sums / np.bincount(idx, minlength=m)[:, None]
-            assert _class_means(x, m, offset).tobytes() == ref.tobytes(), (m, offset)
