@@ -71,11 +71,13 @@ Modes = namedtuple("Modes", ("lam", "V", "Vi", "SVq", "SVv", "cg", "gam", "nh", 
 #: slot ``gslot[0]`` with the point's resonance guard applied (``gslot[0] = -1``: the current
 #: slot needs none, :func:`_pattern_slot`); the interval's closed-form coefficients ``ca, cb,
 #: cc, cd`` (``A_k, B_k, C_k, D_k``, :func:`_rate_bounds`) and the exponentials ``el =
-#: e^{lam_k tau}`` at the last check
+#: e^{lam_k tau}`` at the last check; the exponentials ``ez`` of the state the interval ends
+#: in (:func:`_work` takes them), ``et`` those of ``ztmp``, and ``zbest`` the state at the
+#: earliest switch a refinement has evaluated (:func:`_refine`)
 ExpoWork = namedtuple("ExpoWork", ("free", "stuck", "xr", "zeta0", "zeta", "ztmp", "beta", "rv",
                                    "r1", "r2", "zdot", "sbuf", "sdbuf", "fcur", "fprev", "rate",
                                    "cnt", "n_sub", "glam", "gslot", "ca", "cb", "cc", "cd", "el",
-                                   "ratec", "mag"))
+                                   "ratec", "mag", "ez", "et", "zbest"))
 
 _N_EIG, _N_EVENTS, _N_CHECKS, _N_ZENO = 0, 1, 2, 3
 #: length of the counters ``cnt``
@@ -242,10 +244,10 @@ def _psi(lk, mu, tau, el, emu):
 
 
 @njit(**LEAF, inline="always")
-def _zeta_at(tau, md, wk, t0, pt, out):
+def _zeta_at(tau, md, wk, t0, pt, out, eout):
     """Modal state at ``t0 + tau`` of the interval that started at ``t0`` in ``wk.zeta0`` (only
     the first ``md.nh`` terms: the others are conjugates of the first ``md.nc``, never needed
-    in the hot loops)."""
+    in the hot loops); ``e^{lam_k tau}`` into ``eout``."""
     f0, om = pt.f0, pt.om
     lam, gam, z0, beta = md.lam, md.gam, wk.zeta0, wk.beta
     ep = _eit(om * t0)
@@ -256,6 +258,7 @@ def _zeta_at(tau, md, wk, t0, pt, out):
     for k in range(md.nh):
         lk = lam[k]
         el = np.exp(lk * tau)
+        eout[k] = el
         ph = _phi_e(lk, tau, el)
         psip = _psi(lk, io, tau, el, eip)
         psim = _psi(lk, -io, tau, el, eim)
@@ -265,7 +268,8 @@ def _zeta_at(tau, md, wk, t0, pt, out):
 @njit(**LEAF)
 def _work(tau1, md, wk, t0, pt):
     """Exact ``int_0^tau1 F(t0 + tau) g.v(tau) dtau`` for the interval solution (``F`` is
-    real, so the real sum over the first ``nh`` modes, each of the first ``nc`` twice)."""
+    real, so the real sum over the first ``nh`` modes, each of the first ``nc`` twice); the
+    exponentials ``e^{lam_k tau1}`` are those of the interval's end state (``wk.ez``)."""
     f0, om = pt.f0, pt.om
     lam, gam, cg, z0, beta, wt = md.lam, md.gam, md.cg, wk.zeta0, wk.beta, md.wt
     ep = _eit(om * t0)
@@ -288,7 +292,7 @@ def _work(tau1, md, wk, t0, pt):
         SB += wcg * (-beta[k] / lk + fg / lk)
         SC += wcg * fg * 0.5 * ep / (io - lk)
         SD += wcg * fg * 0.5 * em / (-io - lk)
-        el = np.exp(lk * tau1)
+        el = wk.ez[k]
         total += wcg * Ak * (ap * _phi_e(lk + io, tau1, el * eip)
                                + am * _phi_e(lk - io, tau1, el * eim) + a0 * _phi_e(lk, tau1, el))
     pp_ = _phi_e(io, tau1, eip)
@@ -412,11 +416,14 @@ def shift_resonant(lam, om, out):
             out[k] = lam[k] - tol
 
 
-@njit(cache=True)
-def _project(md, wk, x, pt):
+@njit(cache=True, _nrt=False)
+def project(cache, slot, wk, x, pt):
     """Modal coordinates ``wk.zeta0`` of the current state and the constant modal forcing
-    ``wk.beta`` of the stuck springs' anchors and the sliding elements' kinetic tractions (the
-    first ``nh`` modes; the last ``nc`` are the conjugates of the first)."""
+    ``wk.beta`` of the stuck springs' anchors and the sliding elements' kinetic tractions in
+    the pattern of cache slot ``slot`` (the first ``nh`` modes; the last ``nc`` are the
+    conjugates of the first).  Without reference counting: its callers keep numba's, which
+    would count every view of the slot's arrays, at every switch."""
+    md = _modes(cache, slot, wk)
     q, v, z, mode = x.q, x.v, x.z, x.mode
     n = q.shape[0]
     n2 = 2 * n
@@ -441,16 +448,30 @@ def _project(md, wk, x, pt):
         for a in range(n):
             acc += pt.Minv[i, a] * rv[a]
         bv[i] = acc
-    Vi = md.Vi
-    for k in range(md.nh):
-        acc = 0.0j
-        acc2 = 0.0j
+    # V^-1 is complex and the state real: the real and imaginary parts of each product
+    # separately (a complex product with a real factor would multiply its zero imaginary part
+    # too), two modes at a time (four independent sums, where one mode alone waits for each
+    # addition); every sum runs in the order of i, so the values are those of the complex
+    # sums to the bit
+    Vi, nh = md.Vi, md.nh
+    for k in range(0, nh, 2):
+        k2 = min(k + 1, nh - 1)   # an odd last mode is summed twice, the same way
+        ar = ai = ar2 = ai2 = 0.0
         for i in range(n2):
-            acc += Vi[k, i] * xr[i]
+            ar += Vi[k, i].real * xr[i]
+            ai += Vi[k, i].imag * xr[i]
+            ar2 += Vi[k2, i].real * xr[i]
+            ai2 += Vi[k2, i].imag * xr[i]
+        br = bi = br2 = bi2 = 0.0
         for i in range(n):
-            acc2 += Vi[k, n + i] * bv[i]
-        wk.zeta0[k] = acc
-        wk.beta[k] = acc2
+            br += Vi[k, n + i].real * bv[i]
+            bi += Vi[k, n + i].imag * bv[i]
+            br2 += Vi[k2, n + i].real * bv[i]
+            bi2 += Vi[k2, n + i].imag * bv[i]
+        wk.zeta0[k] = complex(ar, ai)
+        wk.beta[k] = complex(br, bi)
+        wk.zeta0[k2] = complex(ar2, ai2)
+        wk.beta[k2] = complex(br2, bi2)
     for k in range(md.nc):
         wk.zeta0[md.nh + k] = np.conj(wk.zeta0[k])
         wk.beta[md.nh + k] = np.conj(wk.beta[k])
@@ -546,30 +567,34 @@ def _next_check(lo, t0, d_max, d_min, md, wk, x, pt):
 
 
 @njit(**LEAF)
-def _closed_form(tau, md, wk, pt, out):
+def _closed_form(tau, md, wk, pt, out, eout):
     """Modal state at ``tau`` from the interval's coefficients (:func:`_rate_bounds`): ``A_k
     e^{lam_k tau} + B_k + C_k e^{i w tau} + D_k e^{-i w tau}``, the first ``md.nh`` modes.
     Cheaper than :func:`_zeta_at` (no divisions), but its terms are up to ``1 / sep`` times
     the state (``sep`` from :func:`_rate_bounds`), so an interval uses it only where ``sep *
-    span`` is at least :data:`_SEP_MIN` (:func:`_state_at`)."""
+    span`` is at least :data:`_SEP_MIN` (:func:`_state_at`).  ``e^{lam_k tau}`` into ``eout``."""
     eiw = _eit(pt.om * tau)
     eiwc = np.conj(eiw)
     for k in range(md.nh):
-        out[k] = wk.ca[k] * np.exp(md.lam[k] * tau) + wk.cb[k] + wk.cc[k] * eiw + wk.cd[k] * eiwc
+        el = np.exp(md.lam[k] * tau)
+        eout[k] = el
+        out[k] = wk.ca[k] * el + wk.cb[k] + wk.cc[k] * eiw + wk.cd[k] * eiwc
 
 
 @njit(**LEAF)
-def _state_at(tau, closed, md, wk, t0, pt, out):
-    """Modal state at ``t0 + tau`` of the interval: :func:`_closed_form` if ``closed``, else
-    :func:`_zeta_at`.  An interval uses one of them throughout (its refinement, its switch
-    decisions and its end state), so that the sign an element's event function had where its
-    refinement evaluated it is the sign the switch sees.  (A bracket whose right end is still
-    the check's, evaluated on the ladder, may end on a point where no element switches: the
-    interval then ends there without a switch and the next one starts from it.)"""
+def _state_at(tau, closed, md, wk, t0, pt, out, eout):
+    """Modal state at ``t0 + tau`` of the interval (``e^{lam_k tau}`` into ``eout``):
+    :func:`_closed_form` if ``closed``, else :func:`_zeta_at`.  An interval uses one of them
+    throughout (its refinement, its switch decisions and its end state, which is the state
+    its refinement evaluated at the switch), so that the sign an element's event function
+    had where its refinement evaluated it is the sign the switch sees.  (A bracket whose right
+    end is still the check's, evaluated on the ladder, may end on a point where no element
+    switches: the interval then ends there without a switch and the next one starts from
+    it.)"""
     if closed:
-        _closed_form(tau, md, wk, pt, out)
+        _closed_form(tau, md, wk, pt, out, eout)
     else:
-        _zeta_at(tau, md, wk, t0, pt, out)
+        _zeta_at(tau, md, wk, t0, pt, out, eout)
 
 
 @njit(**LEAF, inline="always")
@@ -592,7 +617,7 @@ def _slope(j, zeta, tau, t0, md, x, pt, wk):
 
 
 @njit(**LEAF, inline="always")
-def _refine(j, lo, tau, span, t0, md, wk, x, pt, closed):
+def _refine(j, lo, tau, span, t0, md, wk, x, pt, closed, best):
     """Crossing of element ``j``'s event function ``f`` in ``[lo, tau]`` (``f(lo) <= 0 <
     f(tau)``, the modal state from :func:`_state_at`); returns the right end ``b`` of the final
     bracket, ``b - a <= 1e-12 span`` with ``f(b) > 0``.  Newton steps (the slope
@@ -600,7 +625,10 @@ def _refine(j, lo, tau, span, t0, md, wk, x, pt, closed):
     ``tau`` with the check's own state; a step that leaves the bracket falls back to regula
     falsi, and from the 8th evaluation every third one (every one after the 40th) is a
     bisection.  A Newton step shorter than half the tolerance is pushed by half the tolerance
-    past the root, so that the bracket closes from both sides."""
+    past the root, so that the bracket closes from both sides.  A right end evaluated before
+    ``best`` (the earliest switch found so far) leaves its state in ``wk.zbest`` and its
+    exponentials in ``wk.ez``: the interval takes them instead of evaluating them again
+    (:func:`_interval`; the same function at the same time, so the same bits)."""
     a = lo
     b = tau
     fa = min(wk.fprev[j], 0.0)
@@ -616,11 +644,15 @@ def _refine(j, lo, tau, span, t0, md, wk, x, pt, closed):
             nxt = b - fb * (b - a) / (fb - fa) if fb - fa > 0.0 else 0.5 * (a + b)
             if not (a < nxt < b):
                 nxt = 0.5 * (a + b)
-        _state_at(nxt, closed, md, wk, t0, pt, wk.ztmp)
+        _state_at(nxt, closed, md, wk, t0, pt, wk.ztmp, wk.et)
         fm = _cond(j, wk.ztmp, md, x, pt, wk)
         if fm > 0.0:
             b = nxt
             fb = fm
+            if b < best:
+                for k in range(md.nh):
+                    wk.zbest[k] = wk.ztmp[k]
+                    wk.ez[k] = wk.et[k]
         else:
             a = nxt
             fa = fm
@@ -673,8 +705,11 @@ def _decayed_rates(md, wk, x, pt):
 
 @njit(**LEAF)
 def _find_event(t0, span, md, wk, x, pt):
-    """Earliest switch in ``(t0, t0 + span]`` (interval offset, or -1.0 if none) and whether
-    the interval uses the closed form in its coefficients (:func:`_state_at`): adaptive
+    """Earliest switch in ``(t0, t0 + span]`` (interval offset, or -1.0 if none), whether
+    the interval uses the closed form in its coefficients (:func:`_state_at`) and whether the
+    state at the switch is in ``wk.zeta`` (no switch: the state at the span's end) or in
+    ``wk.zbest`` (with its exponentials in ``wk.ez``, :func:`_refine`; else it must be
+    evaluated): adaptive
     checks (:func:`_next_check`, at most ``span / n_sub`` and at least ``d_min = 0.1 /
     max|lam|`` apart; with a ladder and coefficients that do not cancel (:func:`_closed_form`),
     the longest rung within that spacing, :func:`_ladder_check`; the check at the interval's
@@ -698,12 +733,12 @@ def _find_event(t0, span, md, wk, x, pt):
         tau = lo + d
         if tau >= span * (1.0 - 1e-14):
             tau = span
-            _state_at(tau, closed, md, wk, t0, pt, wk.zeta)
+            _state_at(tau, closed, md, wk, t0, pt, wk.zeta, wk.ez)
         elif rungs > 0:
             _ladder_check(m, tau, md, wk, pt)
             _decayed_rates(md, wk, x, pt)
         else:
-            _zeta_at(tau, md, wk, t0, pt, wk.zeta)
+            _zeta_at(tau, md, wk, t0, pt, wk.zeta, wk.et)
         wk.cnt[_N_CHECKS] += 1
         for j in range(x.z.shape[0]):
             wk.fprev[j] = wk.fcur[j]
@@ -712,14 +747,14 @@ def _find_event(t0, span, md, wk, x, pt):
             for j in range(x.z.shape[0]):
                 if wk.free[j] or wk.fcur[j] <= 0.0:
                     continue
-                b = _refine(j, lo, tau, span, t0, md, wk, x, pt, closed)
+                b = _refine(j, lo, tau, span, t0, md, wk, x, pt, closed, best)
                 if b < best:
                     best = b
-            return best, closed
+            return best, closed, best < tau
         lo = tau
         if tau >= span:
             break
-    return -1.0, closed
+    return -1.0, closed, False
 
 
 @njit(**LEAF)
@@ -810,7 +845,8 @@ def new_scratch(pt, n_sub, cnt):
                     np.full(1, -1, np.int64), np.empty(n2, np.complex128),
                     np.empty(n2, np.complex128), np.empty(n2, np.complex128),
                     np.empty(n2, np.complex128), np.empty(n2, np.complex128), np.empty(nq),
-                    np.empty(n2))
+                    np.empty(n2), np.empty(n2, np.complex128), np.empty(n2, np.complex128),
+                    np.empty(n2, np.complex128))
 
 
 @njit(cache=True, inline="always")
@@ -833,22 +869,36 @@ def _modes(cache, slot, wk):
     return slot_modes(cache, slot, cache.lam[slot], False)
 
 
-@njit(cache=True)
-def _pattern_slot(cache, wk, x, pt):
-    """Cache slot of the current stick pattern (decomposed on a miss), its resonance guard
-    for this point noted in ``wk``."""
+@njit(cache=True, _nrt=False)
+def _cached_slot(cache, wk, x):
+    """``(slot, key)``: the cache slot of the current stick pattern (-1 if it is not cached)
+    and the pattern's bit key (sets ``wk.stuck``)."""
     key = _pattern_key(wk, x)
-    slot = -1
     for c in range(cache.count[_FILLED]):
         if cache.keys[c] == key:
-            slot = c
-            break
-    if slot < 0:
-        slot = _fill_slot(key, cache, wk, pt)
+            return c, key
+    return -1, key
+
+
+@njit(cache=True, _nrt=False)
+def _guard_slot(cache, slot, wk, pt):
+    """Note in ``wk`` the resonance guard of this point for cache slot ``slot``
+    (:func:`resonant`)."""
     wk.gslot[0] = -1
     if resonant(cache.lam[slot], pt.om):
         shift_resonant(cache.lam[slot], pt.om, wk.glam)
         wk.gslot[0] = slot
+
+
+@njit(cache=True)
+def _pattern_slot(cache, wk, x, pt):
+    """Cache slot of the current stick pattern (decomposed on a miss), its resonance guard
+    for this point noted in ``wk``.  The lookup and the guard are kernels without reference
+    counting (this one keeps it for the decomposition's arrays)."""
+    slot, key = _cached_slot(cache, wk, x)
+    if slot < 0:
+        slot = _fill_slot(key, cache, wk, pt)
+    _guard_slot(cache, slot, wk, pt)
     return slot
 
 
@@ -859,10 +909,13 @@ def _interval(t0, t_end, slot, cache, wk, x, pt, tally):
     md = _modes(cache, slot, wk)
     n2 = wk.zeta.shape[0]
     span = t_end - t0
-    ev_tau, closed = _find_event(t0, span, md, wk, x, pt)
+    ev_tau, closed, evaluated = _find_event(t0, span, md, wk, x, pt)
     tau1 = span if ev_tau < 0 else ev_tau
-    if ev_tau >= 0:
-        _state_at(tau1, closed, md, wk, t0, pt, wk.zeta)
+    if evaluated:
+        for k in range(md.nh):
+            wk.zeta[k] = wk.zbest[k]
+    elif ev_tau >= 0:
+        _state_at(tau1, closed, md, wk, t0, pt, wk.zeta, wk.ez)
     for k in range(md.nc):
         wk.zeta[md.nh + k] = np.conj(wk.zeta[k])
     _advance(tau1, t0, md, wk, x, pt, tally.ecum)
@@ -890,7 +943,7 @@ def _step(t0, t_end, slot, cache, wk, x, pt, tally):
     while True:
         if slot < 0:
             slot = _pattern_slot(cache, wk, x, pt)
-            _project(_modes(cache, slot, wk), wk, x, pt)
+            project(cache, slot, wk, x, pt)
         t0, switched = _interval(t0, t_end, slot, cache, wk, x, pt, tally)
         if not switched:
             return t0, slot

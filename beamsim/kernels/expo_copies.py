@@ -117,7 +117,7 @@ def _drive_step(t0, t_end, slot, cache, wk, x, pt, tally, log):
     while True:
         if slot < 0:
             slot = expo._pattern_slot(cache, wk, x, pt)
-            expo._project(expo._modes(cache, slot, wk), wk, x, pt)
+            expo.project(cache, slot, wk, x, pt)
         _log_interval(log, k, t0, slot, cache.keys[slot], wk, x)
         k += 1
         t0, switched = expo._interval(t0, t_end, slot, cache, wk, x, pt, tally)
@@ -167,7 +167,7 @@ def _drive_modes(k, cache, log, pt, wk):
     w = expo.ExpoWork(wk.free, wk.stuck, wk.xr, log.zeta0[k], wk.zeta, wk.ztmp, log.beta[k], wk.rv,
                       wk.r1, wk.r2, wk.zdot, wk.sbuf, wk.sdbuf, wk.fcur, wk.fprev, wk.rate, wk.cnt,
                       wk.n_sub, wk.glam, wk.gslot, wk.ca, wk.cb, wk.cc, wk.cd, wk.el,
-                      wk.ratec, wk.mag)
+                      wk.ratec, wk.mag, wk.ez, wk.et, wk.zbest)
     return md, w
 
 
@@ -177,7 +177,7 @@ def _drive_at(t, log, cache, pt, wk, q, v, strain):
     the logged output step (closed form of its interval; ``wk``: scratch)."""
     k = _drive_interval(t, log)
     md, w = _drive_modes(k, cache, log, pt, wk)
-    expo._zeta_at(t - log.t[k], md, w, log.t[k], pt, wk.ztmp)
+    expo._zeta_at(t - log.t[k], md, w, log.t[k], pt, wk.ztmp, wk.et)
     n = q.shape[0]
     for i in range(n):
         aq = 0.0
@@ -268,7 +268,7 @@ def _copy_step(r, t0, t1, rows, work, pt, tally, opts, spec, band):
             if rows.slots[r] < 0:
                 rows.slots[r] = expo._pattern_slot(cache, wk, y, pt)
                 rows.keys[r] = cache.keys[rows.slots[r]]
-                expo._project(expo._modes(cache, rows.slots[r], wk), wk, y, pt)
+                expo.project(cache, rows.slots[r], wk, y, pt)
             elif cache.keys[rows.slots[r]] != rows.keys[r]:
                 # another copy's decomposition took the slot (a full cache): the same pattern
                 # decomposed again is the same to the bit, so the modal state stays valid

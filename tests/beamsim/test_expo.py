@@ -75,7 +75,7 @@ def _interval_start(viscosity=0.0939):
     wk = expo.new_scratch(pt, 4, np.zeros(expo.N_COUNTERS, np.int64))
     slot = expo._pattern_slot(cache, wk, x, pt)
     md = expo._modes(cache, slot, wk)
-    expo._project(md, wk, x, pt)
+    expo.project(cache, slot, wk, x, pt)
     return md, wk, x, pt, 0.1
 
 
@@ -89,17 +89,22 @@ def test_ladder_and_closed_form_follow_the_divided_differences():
     assert md.ladder.shape[0] == expo.LADDER_RUNGS
     ref = np.empty_like(wk.zeta)
     got = np.empty_like(wk.zeta)
+    e_ref = np.empty_like(wk.zeta)
+    e_got = np.empty_like(wk.zeta)
     nh = md.nh
     wk.el[:] = 1.0
     tau = 0.0
     for m in [0, 5, 29, 3, 12, 12, 1, 29, 29, 7] * 3:
         tau += expo._rung(d_min, m)
         expo._ladder_check(m, tau, md, wk, pt)
-        expo._zeta_at(tau, md, wk, t0, pt, ref)
+        expo._zeta_at(tau, md, wk, t0, pt, ref, e_ref)
         scale = np.abs(ref[:nh]).max()
         assert np.abs(wk.zeta[:nh] - ref[:nh]).max() < 1e-12 * scale
-        expo._closed_form(tau, md, wk, pt, got)
+        expo._closed_form(tau, md, wk, pt, got, e_got)
         assert np.abs(got[:nh] - ref[:nh]).max() < 1e-12 * scale
+        # both hand out the exponentials e^{lam_k tau} (the work integral takes them)
+        assert np.array_equal(e_got[:nh], e_ref[:nh])
+        assert np.abs(e_got[:nh] - np.exp(md.lam[:nh] * tau)).max() < 1e-15
     # longer than an output step at 64 per period (the longest interval): the recurrence was
     # checked over more rungs than one interval ever takes
     assert tau > 2 * np.pi / pt.om / 64
