@@ -63,7 +63,7 @@ Modes = namedtuple("Modes", ("lam", "V", "Vi", "SVq", "SVv", "cg", "gam", "nh", 
 #: per-point scratch: permanently free elements, stuck set, real state ``xr``, modal states
 #: ``zeta0`` (interval start), ``zeta`` (current), ``ztmp``, modal forcing ``beta``, the
 #: interface load ``rv``, the free parts of the rate bounds ``r1, r2`` (``r1`` also
-#: :func:`_project`'s scratch), the bounds ``rate`` and their forced parts ``ratec``, the
+#: :func:`project`'s scratch), the bounds ``rate`` and their forced parts ``ratec``, the
 #: scratch ``mag`` (:func:`_rate_bounds`, :func:`_decayed_rates`), modal rate ``zdot``, slips
 #: ``sbuf``, slip rates ``sdbuf``, event functions
 #: ``fcur, fprev``, counters ``cnt`` (filled decompositions computed, events, checks,
