@@ -61,12 +61,13 @@ def compile_kernels(stage: str, methods: Sequence[str] = ("expo",), threads: int
     ``numerics.lyapunov.ladder: rk4``) first, then the free copies' and the ladder's integrators
     in ``methods`` (``expo``: :mod:`beamsim.kernels.expo_copies`); with ``rigid`` also the rigid
     stick's kernels (RK4 and copies).  Compilation is single-threaded (its time on a fresh
-    install: docs/performance.md, "Compilation"); as separate one-thread jobs the two stages
-    compile side by side, and in this order each loads from numba's cache the callees the other
-    has compiled meanwhile (the ``expo`` copies ``expo``'s, the RK4 reference the RK4 copies').
-    The chunk jobs then load every kernel from the cache, so none of them runs a kernel
-    compiled in its own process (whose results can differ from the cached kernel's in the last
-    bits: docs/reliability.md).  Returns the wall time [s]."""
+    install: docs/performance.md, "Compilation").  The workflow runs the Lyapunov stage's job
+    first and the simulate stage's after it, which loads the callees the first has compiled
+    (``expo``'s, RK4's) from numba's cache: side by side, which callees each job found in the
+    cache depended on the jobs' timing, and with them the last bits of the Lyapunov kernels
+    (docs/reliability.md, "Compiled kernels").  The chunk jobs then load every kernel from the
+    cache, so none of them runs a kernel compiled in its own process.  Returns the wall time
+    [s]."""
     from beamsim.simulate import prepare_point, simulate_batch
 
     t0 = time.perf_counter()
@@ -86,9 +87,8 @@ def compile_kernels(stage: str, methods: Sequence[str] = ("expo",), threads: int
             start = np.zeros((1, 2 * n + 2 * nq))  # at rest, every element stuck
             # the forced response's scale
             scale = attractor_scale(np.zeros((2, 2 * n)), response_scale(pp), pp.omega)
-            # the RK4 copies first: meanwhile the simulate stage's job compiles ``expo``, whose
-            # callees the ``expo`` copies then load from numba's cache, as that job's RK4 kernel
-            # loads the RK4 copies' (both jobs' wall time: docs/performance.md, "Compilation")
+            # the RK4 copies first, then the ``expo`` copies (each with its own ladder); the
+            # simulate stage's job, after this one, loads their callees from numba's cache
             frees = ["rk4"] if pt.get("law") == "rigid-stick" else ["rk4", *sorted(set(meths) - {"rk4"})]
             for free in frees:
                 beam_lle([pp], start, scale[None], n_periods=4, n_threads=threads, free_method=free,

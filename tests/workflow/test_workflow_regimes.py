@@ -49,6 +49,22 @@ def test_dry_run_of_every_target():
         assert res.returncode == 0, (target, res.stderr[-2000:])
 
 
+def test_the_kernel_jobs_compile_one_after_the_other():
+    """The simulate stage's compile job waits for the Lyapunov stage's: side by side, which of
+    the shared callees each found in numba's cache depended on the timing, and with it the last
+    bits of the Lyapunov kernels (three fresh-clone runs of one commit gave two different sets of
+    lambda_1 columns, docs/reliability.md)."""
+    res = subprocess.run([sys.executable, "-m", "snakemake", "-n", "--forceall", "regimes"], cwd=ROOT,
+                         capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr[-2000:]
+    jobs = [block for block in res.stdout.split("\n\n") if "rule compile_kernels:" in block]
+    assert len(jobs) == 2
+    simulate = next(b for b in jobs if "output: results/kernels/simulate.done" in b)
+    lyapunov = next(b for b in jobs if "output: results/kernels/lyapunov.done" in b)
+    assert "input: results/kernels/lyapunov.done" in simulate
+    assert "input:" not in lyapunov
+
+
 @pytest.mark.parametrize("grid_file", sorted(p.name for p in (ROOT / "config").glob("grid*.yaml")))
 def test_every_shipped_grid_file_validates_and_plans(grid_file):
     """The grid files the project ships (the default and the three-mode chaos grid) pass the

@@ -1,4 +1,10 @@
 rule compile_kernels:
+    input:
+        # one stage after the other: a kernel's machine code (and so its last bits) depends on
+        # which of its callees the compiling process loaded from numba's cache and which it
+        # compiled itself, so the two jobs side by side made the Lyapunov kernels' bits depend
+        # on the jobs' timing (docs/reliability.md, "Compiled kernels")
+        before=lambda wildcards: ["results/kernels/lyapunov.done"] if wildcards.stage == "simulate" else [],
     output:
         stamp="results/kernels/{stage}.done",
     params:
