@@ -61,13 +61,13 @@ def compile_kernels(stage: str, methods: Sequence[str] = ("expo",), threads: int
     ``numerics.lyapunov.ladder: rk4``) first, then the free copies' and the ladder's integrators
     in ``methods`` (``expo``: :mod:`beamsim.kernels.expo_copies`); with ``rigid`` also the rigid
     stick's kernels (RK4 and copies).  Compilation is single-threaded (its time on a fresh
-    install: docs/performance.md, "Compilation").  The workflow runs the Lyapunov stage's job
-    first and the simulate stage's after it, which loads the callees the first has compiled
+    install: docs/performance.md, "Compilation").  The workflow runs the simulate stage's job
+    first and the Lyapunov stage's after it, which loads the callees the first has compiled
     (``expo``'s, RK4's) from numba's cache: side by side, which callees each job found in the
     cache depended on the jobs' timing, and with them the last bits of the Lyapunov kernels
-    (docs/reliability.md, "Compiled kernels").  The chunk jobs then load every kernel from the
-    cache, so none of them runs a kernel compiled in its own process.  Returns the wall time
-    [s]."""
+    (docs/reliability.md, "Compiled kernels").  The chunk jobs load every kernel from the
+    cache, so none of them runs a kernel compiled in its own process; the simulate chunks need
+    only the first job's, so they run while the second compiles.  Returns the wall time [s]."""
     from beamsim.simulate import prepare_point, simulate_batch
 
     t0 = time.perf_counter()
@@ -87,8 +87,8 @@ def compile_kernels(stage: str, methods: Sequence[str] = ("expo",), threads: int
             start = np.zeros((1, 2 * n + 2 * nq))  # at rest, every element stuck
             # the forced response's scale
             scale = attractor_scale(np.zeros((2, 2 * n)), response_scale(pp), pp.omega)
-            # the RK4 copies first, then the ``expo`` copies (each with its own ladder); the
-            # simulate stage's job, after this one, loads their callees from numba's cache
+            # the RK4 copies first, then the ``expo`` copies (each with its own ladder); their
+            # callees in common with the reference runs come from the simulate stage's job
             frees = ["rk4"] if pt.get("law") == "rigid-stick" else ["rk4", *sorted(set(meths) - {"rk4"})]
             for free in frees:
                 beam_lle([pp], start, scale[None], n_periods=4, n_threads=threads, free_method=free,

@@ -50,19 +50,26 @@ def test_dry_run_of_every_target():
 
 
 def test_the_kernel_jobs_compile_one_after_the_other():
-    """The simulate stage's compile job waits for the Lyapunov stage's: side by side, which of
+    """The Lyapunov stage's compile job waits for the simulate stage's: side by side, which of
     the shared callees each found in numba's cache depended on the timing, and with it the last
     bits of the Lyapunov kernels (three fresh-clone runs of one commit gave two different sets of
-    lambda_1 columns, docs/reliability.md)."""
+    lambda_1 columns, docs/reliability.md).  The compile jobs come before any chunk that is
+    ready with them (priority), and every computing rule takes one thread, so the simulate
+    chunks run on the other core while the Lyapunov kernels compile."""
     res = subprocess.run([sys.executable, "-m", "snakemake", "-n", "--forceall", "regimes"], cwd=ROOT,
                          capture_output=True, text=True, timeout=300)
     assert res.returncode == 0, res.stderr[-2000:]
-    jobs = [block for block in res.stdout.split("\n\n") if "rule compile_kernels:" in block]
+    blocks = res.stdout.split("\n\n")
+    jobs = [block for block in blocks if "rule compile_kernels:" in block]
     assert len(jobs) == 2
     simulate = next(b for b in jobs if "output: results/kernels/simulate.done" in b)
     lyapunov = next(b for b in jobs if "output: results/kernels/lyapunov.done" in b)
-    assert "input: results/kernels/lyapunov.done" in simulate
-    assert "input:" not in lyapunov
+    assert "input: results/kernels/simulate.done" in lyapunov
+    assert "input:" not in simulate
+    assert all("priority: 10" in b for b in jobs)
+    chunks = [b for b in blocks if "rule simulate_chunk:" in b]
+    assert chunks and all("priority:" not in b and "threads:" not in b for b in chunks)  # 1 thread
+    assert all("results/kernels/lyapunov.done" not in b for b in chunks)
 
 
 @pytest.mark.parametrize("grid_file", sorted(p.name for p in (ROOT / "config").glob("grid*.yaml")))

@@ -20,12 +20,12 @@ from beamsim.mode_cache import model_cache_key
 
 def estimate_cores() -> int:
     """The cores the run's time estimate assumes (the log line of every call, and the length
-    gate): ``-c`` locally; on a cluster ``--jobs`` jobs at a time, each with the chunk rules' 2
-    threads (known only once the executor is chosen, in ``onstart``: while the workflow is
-    parsed Snakemake counts as local)."""
+    gate): ``-c`` locally; on a cluster ``--jobs`` jobs at a time, each with the computing
+    rules' one thread (known only once the executor is chosen, in ``onstart``: while the
+    workflow is parsed Snakemake counts as local)."""
     if workflow.local_exec:
         return workflow.global_resources.get("_cores") or 1
-    return 2 * (workflow.global_resources.get("_nodes") or 1)
+    return workflow.global_resources.get("_nodes") or 1
 
 
 #: every check that can refuse an input runs here, while the workflow is parsed (before any job)

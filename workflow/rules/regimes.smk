@@ -3,14 +3,18 @@ rule compile_kernels:
         # one stage after the other: a kernel's machine code (and so its last bits) depends on
         # which of its callees the compiling process loaded from numba's cache and which it
         # compiled itself, so the two jobs side by side made the Lyapunov kernels' bits depend
-        # on the jobs' timing (docs/reliability.md, "Compiled kernels")
-        before=lambda wildcards: ["results/kernels/lyapunov.done"] if wildcards.stage == "simulate" else [],
+        # on the jobs' timing (docs/reliability.md, "Compiled kernels"); the simulate stage's
+        # first, so that its chunks run on the other core while the Lyapunov stage's compiles
+        before=lambda wildcards: ["results/kernels/simulate.done"] if wildcards.stage == "lyapunov" else [],
     output:
         stamp="results/kernels/{stage}.done",
     params:
         methods=lambda wildcards: STAGE_METHODS[wildcards.stage],
         rigid=PLAN.rigid_stick,
     threads: 1
+    # before the chunks that are ready with it: the Lyapunov stage's compilation is on the
+    # critical path, a simulate chunk is not
+    priority: 10
     log:
         "logs/kernels/{stage}.log",
     conda:
@@ -29,7 +33,10 @@ rule simulate_chunk:
         points=chunk_payload,
         numerics=RESULT_NUMERICS,
         store=STORE_ROOT,
-    threads: 2
+    # one thread per job, as every computing rule here: the scheduler keeps the cores busy
+    # with whole jobs (their serial parts and last points' tails left one core idle at two
+    # threads a job: docs/pipeline.md); results do not depend on it (--set-threads RULE=N)
+    threads: 1
     log:
         "logs/regimes/{grid}/simulate_{chunk}.log",
     conda:
@@ -49,7 +56,7 @@ rule lyapunov_chunk:
         points=chunk_payload,
         numerics=RESULT_NUMERICS,
         store=STORE_ROOT,
-    threads: 2
+    threads: 1
     log:
         "logs/regimes/{grid}/lyapunov_{chunk}.log",
     conda:
@@ -110,7 +117,7 @@ rule convergence_runs:
         settings=CONVERGENCE_SETTINGS,
         axes=lambda wc: list(GRIDS["grids"][wc.grid]["axes"]),
         store=STORE_ROOT,
-    threads: 2
+    threads: 1
     log:
         "logs/regimes/{grid}/convergence_{refinement}.log",
     conda:
@@ -133,7 +140,7 @@ rule cell_attractors:
         axes=lambda wc: list(GRIDS["grids"][wc.grid]["axes"]),
         store=STORE_ROOT,
         config_hash=CONFIG_HASH,
-    threads: 2
+    threads: 1
     log:
         "logs/regimes/{grid}/cell_attractors.log",
     conda:
@@ -191,7 +198,7 @@ rule continuation_line:
         version=RESULTS_VERSION,  # a code change that alters results reruns the line
         line=lambda wc: GRIDS["grids"][wc.grid]["lines"][wc.line],
         numerics=RESULT_NUMERICS,
-    threads: 2
+    threads: 1
     log:
         "logs/regimes/{grid}/line_{line}.log",
     conda:
