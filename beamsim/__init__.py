@@ -14,6 +14,12 @@ one thread when beamsim is imported: the environment variables for libraries loa
 job's thread count), and :func:`threadpoolctl.threadpool_limits` for those already loaded.
 Parallelism comes from threads over points (:mod:`beamsim.kernels.thread_pool`), whose results
 do not depend on their number.
+
+numba's optimisation level defaults to 1 here (``NUMBA_OPT``, set only when the environment
+does not set it, and only for a process that imports beamsim before numba): numba's default, 3,
+spends more compile time on a fresh install for kernels that ran no faster and gave the same
+bits where it was measured (docs/performance.md, "Optimisation level").  The
+level is a compile-speed knob, not a result: a numba cache filled at another level is reused.
 """
 
 import os as _os
@@ -24,5 +30,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 from threadpoolctl import threadpool_limits as _threadpool_limits  # noqa: E402
 
 _threadpool_limits(limits=1, user_api="blas")
+
+_os.environ.setdefault("NUMBA_OPT", "1")
 
 __version__ = "0.1.0"
