@@ -57,11 +57,10 @@ from beamsim.point import check_method_law, period_steps, stack_points
 from beamsim.two_layer import check_int, check_positive
 
 #: the ``expo`` copies' output grid, steps per forcing period (where they are measured,
-#: coupled and rescaled) when none is given: 64, finer than the reference runs' ``expo`` grid
-#: (:data:`beamsim.point.DEFAULT_STEPS_PER_PERIOD`, 16 since results version 14, when the
-#: checks' bounds began to follow the free modes' decay): the Lyapunov method's grid stayed
-#: where its checks were made (docs/lyapunov.md, section 12)
-EXPO_COPY_STEPS_PER_PERIOD = 64
+#: coupled and rescaled) when none is given: 16 since results version 16, the reference runs'
+#: ``expo`` grid (:data:`beamsim.point.DEFAULT_STEPS_PER_PERIOD`); 64 before, where the
+#: method's checks had been made (docs/lyapunov.md, section 12, repeats them at 16)
+EXPO_COPY_STEPS_PER_PERIOD = 16
 
 __all__ = ["run_copies"]
 
@@ -101,7 +100,7 @@ def run_copies(prepared: list, x_start: np.ndarray, offsets: np.ndarray, d: np.n
         exactly between their own located switches; stick-slip law only; a coupling acts as
         its own flow at the output grid's step ends, exact in the linearised dynamics).  With
         ``expo`` the copies are measured, coupled and rescaled at the ``expo`` output grid's
-        step ends (``steps_per_period``, default 64 per period) and ``step_factor`` only sets
+        step ends (``steps_per_period``, default 16 per period) and ``step_factor`` only sets
         the adoption window; ``event_checks``, ``pattern_cache`` and ``pattern_store`` are ``expo``'s
         (:func:`beamsim.simulate.simulate_batch`; a thread's drives and copies share its
         cache).

@@ -56,7 +56,7 @@ from analysis.pipeline.stages import (  # noqa: E402
     lyapunov_points,
     simulate_points,
 )
-from beamsim.coupled_copies import run_copies  # noqa: E402
+from beamsim.coupled_copies import EXPO_COPY_STEPS_PER_PERIOD, run_copies  # noqa: E402
 from beamsim.simulate import prepare_point, simulate_batch  # noqa: E402
 
 #: period-1 points of the band where the expo pair at e0 = 1e-6 reads +0.55 and +0.71
@@ -131,7 +131,8 @@ def grazing_study(threads):
     record_study("grazing cell", settled,
                  [(f"expo window, step factor {sf}", "expo", 1e-4, {"step_factor": sf})
                   for sf in (0.5, 0.25, 0.125)]
-                 + [("expo grid (every T / 64)", "expo", 1e-4, {"adoption": "grid"})]
+                 + [(f"expo grid (every T / {EXPO_COPY_STEPS_PER_PERIOD})", "expo", 1e-4,
+                     {"adoption": "grid"})]
                  + [(f"RK4 step factor {sf}", "rk4", 1e-6, {"step_factor": sf})
                     for sf in (0.5, 0.25, 0.125)], threads)
 

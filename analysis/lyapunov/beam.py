@@ -190,7 +190,8 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
     free_method, free_e0, free_steps : integrator of the free copy (round 0 and the long record:
         the Benettin values, the block statistics and Stefanski's ``d = 0`` test), its initial
         separation (default ``e0``) and, for ``"expo"``, its steps per period (the grid at
-        which the copy is measured and renormalised; default 64).  ``"rk4"``: the RK4 pair of
+        which the copy is measured and renormalised; default
+        :data:`beamsim.coupled_copies.EXPO_COPY_STEPS_PER_PERIOD`).  ``"rk4"``: the RK4 pair of
         the coupled copies; ``"expo"``: drive and copy each exact between their own located
         switches (:mod:`beamsim.kernels.expo_copies`; stick-slip law; ``expo``'s event
         location has a noise floor near ``1e-6`` of the attractor, so ``free_e0`` must stay

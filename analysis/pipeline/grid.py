@@ -25,7 +25,7 @@ import numpy as np
 from analysis.pipeline.config import Numerics, as_numerics
 
 #: bump when a code change alters results for unchanged parameters (invalidates all ids)
-RESULTS_VERSION = "15"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
+RESULTS_VERSION = "16"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
 #                        conjugate pairs with damping, kernels with reassociated sums; 8: the
 #                        continuation check (the record kept is the continued one); 9: the
 #                        Lyapunov stage's free copy on expo (numerics.lyapunov.method: auto);
@@ -38,7 +38,8 @@ RESULTS_VERSION = "15"  # 6: adaptive transients, block statistics of lambda_1; 
 #                        14: expo's check bounds follow the free modes' decay, its reference
 #                        runs' output grid 16 steps per period (64 before); 15: expo's
 #                        switches refined by Newton steps, magnitudes without hypot (switch
-#                        times move in the last bits)
+#                        times move in the last bits); 16: the expo copies' output grid 16
+#                        steps per period (64 before), their Zeno guard counted per T / 64
 
 
 def _canonical(value):

@@ -246,13 +246,17 @@ def _copy_step(r, t0, t1, rows, work, pt, tally, opts, spec, band):
     """Advance copy ``r`` over the output step ``[t0, t1]`` (the drive already is): its own
     switches, a split at every switch of the drive (its mismatches are noted there) and at
     every adoption that falls due (``opts.tau_a > 0``).  Returns True if the step was ended
-    by the Zeno guard.  ``work``: the drive's log, the two
+    by the Zeno guard (more than ``10 nq + 10`` switches of the copy within
+    :data:`beamsim.kernels.expo.ZENO_WINDOWS_PER_PERIOD`-th of a forcing period, the window of
+    ``expo``'s own guard, whatever the output step).  ``work``: the drive's log, the two
     pattern cache, every row's scratch and three scratch vectors."""
     log, cache, wks, scratch = work
     wk = wks[r]
     y = _row(rows, r)
     tau_a = opts.tau_a
     guard = 0
+    window = 2.0 * math.pi / pt.om / expo.ZENO_WINDOWS_PER_PERIOD
+    t_win = t0
     t = t0
     while t < t1:
         t_next = t1
@@ -276,6 +280,9 @@ def _copy_step(r, t0, t1, rows, work, pt, tally, opts, spec, band):
             t_reached, switched = expo._interval(t, t_next, rows.slots[r], cache, wk, y, pt, tally)
             if switched:
                 rows.slots[r] = -1
+                if t_reached - t_win >= window:
+                    t_win = t_reached
+                    guard = 0
                 guard += 1
                 if guard > 10 * y.z.shape[0] + 10:
                     # Zeno guard, as expo's: accept the state, resume on the grid (counted:
