@@ -18,7 +18,7 @@ do not depend on their number.
 numba's optimisation level defaults to 1 here (``NUMBA_OPT``, set only when the environment
 does not set it, and only for a process that imports beamsim before numba): numba's default, 3,
 spends more compile time on a fresh install for kernels that ran no faster and gave the same
-bits where it was measured (docs/performance.md, "Optimisation level").  The
+bits where it was measured (docs/performance.md, "numba at optimisation level 1").  The
 level is a compile-speed knob, not a result: a numba cache filled at another level is reused.
 """
 

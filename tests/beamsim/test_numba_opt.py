@@ -1,5 +1,5 @@
 """numba's optimisation level: beamsim sets 1 unless the environment chose one (a compile-speed
-knob: docs/performance.md, "Optimisation level")."""
+knob: docs/performance.md, "numba at optimisation level 1")."""
 
 from __future__ import annotations
 
