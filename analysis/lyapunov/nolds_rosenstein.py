@@ -9,6 +9,7 @@ Reference
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 import os
 import time
@@ -22,14 +23,18 @@ from analysis.lyapunov.result import LLEResult
 __all__ = ["nolds_lle"]
 
 
+@functools.cache
 def _load_lyap_r() -> Callable:
-    """Return ``nolds.lyap_r``.
+    """Return ``nolds.lyap_r`` (loaded once per process).
 
     nolds 0.6.3 fails to import on our Python 3.11 (``TypeError: 'nolds.datasets'
     is not a package``, CSchoel/nolds issue #80: ``importlib.resources.files``
     is called on a module).  ``lyap_r`` itself lives in ``nolds/measures.py``,
     which only needs numpy, so in that case the module is loaded on its own
-    without running the package ``__init__``.
+    without running the package ``__init__``.  Loaded once per process: the failed import,
+    repeated at every call, reset Python's warning registries (its ``catch_warnings``), so
+    nolds' notes on the ``lag`` / ``min_tsep`` it picks itself were printed at every call (2700
+    of the 2800 log lines of a default run's jobs) and its module was executed again each time.
     """
     try:
         import nolds

@@ -25,7 +25,10 @@ not fitted to the outcome:
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -293,3 +296,21 @@ def test_seeded_ladder_finds_the_threshold_wherever_the_hint_is(hint_factor):
         out[hint] = len(calls)
     if hint_factor in (1.0, 0.7):
         assert out[hint_factor * lam] < out[None], out
+
+
+def test_nolds_warns_once_per_message():
+    """nolds' notes on the lag / min_tsep it picks itself come once per process and message,
+    not at every call (they filled a map job's log: nolds was imported again at every call,
+    which reset Python's warning registries).  In a subprocess, with Python's default filters:
+    pytest installs its own."""
+    code = ("import numpy as np\n"
+            "from analysis.lyapunov.nolds_rosenstein import nolds_lle\n"
+            "x = np.sin(0.05 * np.arange(400.0))\n"  # slowly varying: nolds picks min_tsep
+            "v = [nolds_lle(x, sample_dt=1.0, emb_dim=4).value for _ in range(4)]\n"
+            "assert len(set(v)) == 1, v\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=Path(__file__).resolve().parents[2], timeout=120)
+    assert out.returncode == 0, out.stderr
+    notes = [ln for ln in out.stderr.splitlines() if "RuntimeWarning" in ln]
+    assert notes, "the series should make nolds pick its own min_tsep"
+    assert len(notes) == len(set(notes)), out.stderr

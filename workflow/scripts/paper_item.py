@@ -14,7 +14,8 @@ from analysis.paper.runs import item_runs, smallest_chaotic_ratio
 from analysis.paper.tables import paper_config_hash, write_paper_table
 
 logging.basicConfig(stream=sys.stderr, level=logging.INFO, format="%(asctime)s %(message)s")
-warnings.filterwarnings("ignore", module="nolds")  # nolds' lag heuristics on short series
+# nolds' lag heuristics on short series (its module is loaded as _nolds_measures)
+warnings.filterwarnings("ignore", module="_?nolds")
 item = snakemake.wildcards.item
 ratio = None
 if snakemake.input.chaos:
