@@ -930,15 +930,40 @@ def _interval(t0, t_end, slot, cache, wk, x, pt, tally):
     return t_ev, True
 
 
+@njit(cache=True, inline="always")
+def zeno_window(om):
+    """Length of the Zeno guard's window: the :data:`ZENO_WINDOWS_PER_PERIOD`-th of the forcing
+    period ``2 pi / om``."""
+    return 2.0 * math.pi / om / ZENO_WINDOWS_PER_PERIOD
+
+
+@njit(cache=True, inline="always")
+def zeno_limit(nq):
+    """The most switches the Zeno guard lets through in one window (``nq`` interface points)."""
+    return 10 * nq + 10
+
+
+@njit(cache=True, inline="always")
+def zeno_count(t, t_win, guard, window):
+    """Count a switch at time ``t`` in the Zeno guard's window that began at ``t_win`` with
+    ``guard`` switches: a switch a window or more after ``t_win`` begins a new window.  Returns
+    the window's start and its count, ``(t_win, guard)``; the guard fires when the count exceeds
+    :func:`zeno_limit`.  The rule of ``expo``'s runs (:func:`_step`), its drive and its coupled
+    copies (:mod:`beamsim.kernels.expo_copies`), whatever their output grid."""
+    if t - t_win >= window:
+        return t, 1
+    return t_win, guard + 1
+
+
 @njit(cache=True)
 def _step(t0, t_end, slot, cache, wk, x, pt, tally):
     """Advance from ``t0`` to the step end ``t_end`` through every switch in between.  Zeno
-    guard: more than ``10 nq + 10`` switches within :data:`ZENO_WINDOWS_PER_PERIOD`-th of a
-    forcing period, and the state is accepted as it is at the end of that window (a jump in
-    time, counted).  Returns ``(t0, slot)`` for the next step (``slot = -1``: the pattern must
-    be looked up)."""
+    guard (:func:`zeno_count`): more than ``10 nq + 10`` switches within
+    :data:`ZENO_WINDOWS_PER_PERIOD`-th of a forcing period, and the state is accepted as it is
+    at the end of that window (a jump in time, counted).  Returns ``(t0, slot)`` for the next
+    step (``slot = -1``: the pattern must be looked up)."""
     guard = 0
-    window = 2.0 * math.pi / pt.om / ZENO_WINDOWS_PER_PERIOD
+    window = zeno_window(pt.om)
     t_win = t0
     while True:
         if slot < 0:
@@ -947,12 +972,9 @@ def _step(t0, t_end, slot, cache, wk, x, pt, tally):
         t0, switched = _interval(t0, t_end, slot, cache, wk, x, pt, tally)
         if not switched:
             return t0, slot
-        if t0 - t_win >= window:
-            t_win = t0
-            guard = 0
-        guard += 1
+        t_win, guard = zeno_count(t0, t_win, guard, window)
         slot = -1
-        if guard > 10 * x.z.shape[0] + 10:
+        if guard > zeno_limit(x.z.shape[0]):
             # Zeno guard: accept the state, resume at the window's end (counted: the run is
             # flagged)
             wk.cnt[_N_ZENO] += 1

@@ -95,6 +95,17 @@ def _new_log(n2, nq, size):
                     np.zeros((size, nq), np.int64), np.zeros((size, nq)), np.zeros(1, np.int64))
 
 
+@njit(cache=True)
+def log_size(h, om, nq):
+    """Intervals the drive's log must hold for an output step of length ``h`` without the Zeno
+    guard firing: a new window begins at a switch at least a window after the last one began,
+    so a step spans at most ``h / window + 1`` windows (one more here: ``h / window`` may round
+    down), each with at most :func:`beamsim.kernels.expo.zeno_limit` switches, and the switch
+    that fires the guard (one interval more than switches).  A full log ends the step as the
+    guard does (never, by this count)."""
+    return (int(h / expo.zeno_window(om)) + 2) * expo.zeno_limit(nq) + 2
+
+
 @njit(**LEAF)
 def _log_interval(log, k, t0, slot, key, wk, x):
     log.t[k] = t0
@@ -111,8 +122,13 @@ def _log_interval(log, k, t0, slot, key, wk, x):
 @njit(cache=True)
 def _drive_step(t0, t_end, slot, cache, wk, x, pt, tally, log):
     """:func:`beamsim.kernels.expo._step` of the drive (the same arithmetic), with every
-    interval logged; returns the slot for the next step."""
+    interval logged; returns the slot for the next step.  Its Zeno guard is ``_step``'s
+    (:func:`beamsim.kernels.expo.zeno_count`, per window, not per output step), so it fires
+    where the reference run's would; then the step ends there (counted: the point falls back
+    to the RK4 pair), and the log (:func:`log_size`) holds every interval of a step before."""
     guard = 0
+    window = expo.zeno_window(pt.om)
+    t_win = t0
     k = 0
     while True:
         if slot < 0:
@@ -124,8 +140,8 @@ def _drive_step(t0, t_end, slot, cache, wk, x, pt, tally, log):
         if not switched:
             break
         slot = -1
-        guard += 1
-        if guard > 10 * x.z.shape[0] + 10:
+        t_win, guard = expo.zeno_count(t0, t_win, guard, window)
+        if guard > expo.zeno_limit(x.z.shape[0]) or k == log.t.shape[0]:
             wk.cnt[expo._N_ZENO] += 1
             break
     log.count[0] = k
@@ -255,7 +271,7 @@ def _copy_step(r, t0, t1, rows, work, pt, tally, opts, spec, band):
     y = _row(rows, r)
     tau_a = opts.tau_a
     guard = 0
-    window = 2.0 * math.pi / pt.om / expo.ZENO_WINDOWS_PER_PERIOD
+    window = expo.zeno_window(pt.om)
     t_win = t0
     t = t0
     while t < t1:
@@ -280,11 +296,8 @@ def _copy_step(r, t0, t1, rows, work, pt, tally, opts, spec, band):
             t_reached, switched = expo._interval(t, t_next, rows.slots[r], cache, wk, y, pt, tally)
             if switched:
                 rows.slots[r] = -1
-                if t_reached - t_win >= window:
-                    t_win = t_reached
-                    guard = 0
-                guard += 1
-                if guard > 10 * y.z.shape[0] + 10:
+                t_win, guard = expo.zeno_count(t_reached, t_win, guard, window)
+                if guard > expo.zeno_limit(y.z.shape[0]):
                     # Zeno guard, as expo's: accept the state, resume on the grid (counted:
                     # the copy is then behind the drive in time, its error meaningless)
                     return True
@@ -389,7 +402,7 @@ def run_task(tasks, stk, steps, starts, specs, band, options, out, cache, item):
     expo.use_model(cache, opts.model)
     cnts = (np.zeros(expo.N_COUNTERS, np.int64), np.zeros(expo.N_COUNTERS, np.int64))
     wks = [expo.new_scratch(pt, opts.n_sub, cnts[0] if r == 0 else cnts[1]) for r in range(R)]
-    log = _new_log(2 * n, nq, 10 * nq + 12)
+    log = _new_log(2 * n, nq, log_size(sch.h, pt.om, nq))
     scratch = (np.empty(n), np.empty(n), np.empty(nq))
     work = (log, cache, wks, scratch)
     tally = Tally(np.zeros(3), np.zeros(N_STATS))

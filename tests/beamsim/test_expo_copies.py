@@ -255,3 +255,53 @@ def test_expo_copies_are_stick_slip_only(settled):
     with pytest.raises(ValueError, match="method"):
         run_copies([pp], res[0].final_state[None], off, np.zeros((1, 1)), 1 / scales[:1],
                    n_periods=1, e0=1e-4, method="euler")
+
+
+def _logged_intervals(switches, window, limit):
+    """The drive's count of logged intervals in one output step (every switch begins one more
+    interval) until the step ends or the Zeno guard fires, by the guard's rule."""
+    from beamsim.kernels.expo import zeno_count
+
+    t_win, guard, k = 0.0, 0, 1
+    for t in switches:
+        k += 1
+        t_win, guard = zeno_count(t, t_win, guard, window)
+        if guard > limit:
+            break
+    return k
+
+
+def test_zeno_guard_counts_per_window_and_the_drives_log_holds_a_step():
+    """One Zeno-guard rule for ``expo``'s runs, its drive and its copies: a switch a window or
+    more after the window's start begins a new one, and the guard fires on the count's
+    ``10 nq + 10 + 1``-th switch in a window.  The drive's log (``log_size``) holds every
+    interval of an output step before the guard fires, on 16 and 4 steps per period and the
+    densest switch sequences the rule lets through (each window filled to the limit, the next
+    one begun as early as the rule allows)."""
+    from beamsim.kernels.expo import zeno_count, zeno_limit, zeno_window
+    from beamsim.kernels.expo_copies import log_size
+
+    assert zeno_count(0.5, 0.0, 3, 1.0) == (0.0, 4)
+    assert zeno_count(1.0, 0.0, 3, 1.0) == (1.0, 1)
+    om, nq = 1.85, 8
+    window, limit = zeno_window(om), zeno_limit(nq)
+    assert window == pytest.approx(2 * math.pi / om / 64, rel=1e-15) and limit == 90
+    for n_per in (16, 4):
+        h = 2 * math.pi / om / n_per
+        worst = 0
+        for offset in (0.0, 1e-9 * window, 0.5 * window):
+            # limit switches from the window's start, then the next window's first switch a
+            # window later (and a rounding more)
+            starts = offset + np.arange(int(h / window) + 2) * window * (1.0 + 1e-12)
+            dense = np.concatenate([s + np.linspace(0.0, 0.999 * window, limit) for s in starts])
+            dense = dense[dense < h]
+            assert _logged_intervals(dense, window, limit) == dense.size + 1  # no guard fired
+            worst = max(worst, dense.size + 1)
+        rng = np.random.default_rng(0)
+        for _ in range(200):
+            ts = np.sort(rng.uniform(0.0, h, rng.integers(1, 6 * limit)))
+            worst = max(worst, _logged_intervals(ts, window, limit))
+        assert worst <= log_size(h, om, nq)
+        # and one switch more in a filled window fires the guard
+        over = np.linspace(0.0, 0.5 * window, limit + 1)
+        assert _logged_intervals(over, window, limit) == limit + 2
