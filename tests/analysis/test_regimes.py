@@ -353,6 +353,67 @@ def test_is_settled_still_sees_a_transient_on_a_chaotic_record() -> None:
         is_settled(windows[0], alpha=0.0)
 
 
+def _reference_is_settled(x: np.ndarray, rtol: float = 0.1, alpha: float = 0.01,
+                          n_perm: int = 1000) -> bool:
+    """:func:`is_settled` as it was written first: ``np.quantile`` along the sample axis, all
+    ``n_perm`` permutations, no early decision (the rule of its docstring, literally)."""
+    from analysis.poincare import component_scales
+
+    def diffs(a, b):
+        qa, qb = np.quantile(a, (0.05, 0.95), axis=-2), np.quantile(b, (0.05, 0.95), axis=-2)
+        return np.abs(np.stack([a.mean(axis=-2) - b.mean(axis=-2), a.std(axis=-2) - b.std(axis=-2),
+                                qa[0] - qb[0], qa[1] - qb[1]]))
+
+    x = np.asarray(x, float).reshape(len(x), -1)
+    s = component_scales(x, floor_rtol=0.1)
+    h = x.shape[0] // 2
+    y = x[-2 * h:]
+    obs = (diffs(y[:h], y[h:]) / s).max(axis=-1)
+    if np.all(obs <= rtol):
+        return True
+    n_block = max(4, h // 8)
+    nb = h // n_block
+    if nb < 2:
+        return False
+    z = x[-2 * nb * n_block:].reshape(2 * nb, n_block, -1)
+    rng = np.random.default_rng(0)
+    null = np.empty((n_perm, 4))
+    for lo in range(0, n_perm, 250):
+        k = min(250, n_perm - lo)
+        zz = z[np.argsort(rng.random((k, 2 * nb)), axis=1)].reshape(k, 2 * nb * n_block, -1)
+        null[lo:lo + k] = (diffs(zz[:, :nb * n_block], zz[:, nb * n_block:]) / s).max(axis=-1).T
+    return bool(np.all(obs <= np.maximum(rtol, np.quantile(null, 1.0 - alpha / 4.0, axis=0))))
+
+
+def test_sorted_quantiles_are_numpys_to_the_bit() -> None:
+    """The settledness test's quantiles from sorted samples are ``np.quantile``'s (method
+    "linear") bit for bit, for even and odd lengths and ties."""
+    from analysis.regimes import _sorted_quantiles
+
+    rng = np.random.default_rng(3)
+    for n in (8, 9, 64, 127, 128, 129, 300):
+        for a in (rng.standard_normal((5, n, 7)), np.round(rng.standard_normal((5, n, 7)), 1)):
+            ref = np.quantile(a, (0.05, 0.95), axis=-2)
+            got = _sorted_quantiles(np.sort(np.swapaxes(a, -1, -2), axis=-1))
+            assert np.array_equal(ref, got), n
+
+
+def test_is_settled_decides_as_the_literal_rule() -> None:
+    """Sorted quantiles and the early decision (once enough permuted records reach the observed
+    differences) give the literal rule's verdict: chaotic windows with decaying drifts of
+    sizes on both sides of the decision, in one and in 40 components, and random walks."""
+    i = np.arange(129)[:, None]
+    cases = []
+    for w in _chaotic_windows(129, 6, 40):
+        cases += [w + a * np.ptp(w, axis=0) * np.exp(-i / 40.0) for a in (0.0, 0.1, 0.2, 0.4, 1.0)]
+    rng = np.random.default_rng(5)
+    cases += [rng.standard_normal((n, 3)).cumsum(0) * 0.05 + rng.standard_normal((n, 3))
+              for n in (64, 129, 257, 400) for _ in range(3)]
+    verdicts = [is_settled(c) for c in cases]
+    assert verdicts == [_reference_is_settled(c) for c in cases]
+    assert 0 < sum(verdicts) < len(verdicts)  # both verdicts occur
+
+
 # --------------------------------------------------------------------------- indicators
 def test_zero_one_matches_direct_definition() -> None:
     x = np.random.default_rng(1).standard_normal(300)
