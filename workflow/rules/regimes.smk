@@ -141,6 +141,10 @@ rule cell_attractors:
         store=STORE_ROOT,
         config_hash=CONFIG_HASH,
     threads: 1
+    # the longest job after the map: started before the convergence runs, which then fill the
+    # other core around it (Snakemake's priority is per rule; among equal priorities its
+    # scheduler picks in no fixed order, and a late start left a core idle for up to a minute)
+    priority: 1
     log:
         "logs/regimes/{grid}/cell_attractors.log",
     conda:
