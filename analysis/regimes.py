@@ -268,10 +268,10 @@ def is_settled(
     d = z.shape[-1]
     half = nb * n_block
     q = 1.0 - alpha / 4.0
-    # the decision is known once enough permuted values reach the observed ones: c_k is at least
-    # the order statistic below numpy's virtual index (n_perm - 1) q, so at least n_perm - lo of
-    # them at or above obs_k (lo one lower than that index's floor: safe against its rounding)
-    # put obs_k within max(rtol, c_k) whatever the other permutations give
+    # the verdict is known once enough permuted values reach the observed ones: c_k is at least
+    # the order statistic at the floor lo of numpy's virtual index (n_perm - 1) q, so once
+    # n_perm - lo of them are at or above obs_k, obs_k <= c_k whatever the other permutations
+    # give (lo taken one lower than that floor: safe against the index's rounding)
     enough = n_perm - (int(np.floor((n_perm - 1) * q)) - 1)
     open_k = obs > rtol
     rng = np.random.default_rng(seed)
