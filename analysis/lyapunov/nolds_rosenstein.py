@@ -33,8 +33,9 @@ def _load_lyap_r() -> Callable:
     which only needs numpy, so in that case the module is loaded on its own
     without running the package ``__init__``.  Loaded once per process: the failed import,
     repeated at every call, reset Python's warning registries (its ``catch_warnings``), so
-    nolds' notes on the ``lag`` / ``min_tsep`` it picks itself were printed at every call (2700
-    of the 2800 log lines of a default run's jobs) and its module was executed again each time.
+    nolds' notes on the ``lag`` / ``min_tsep`` it picks itself were printed at every call (most
+    of a default run's job logs: docs/pipeline.md, "Results version 17") and its module was
+    executed again each time.
     """
     try:
         import nolds

@@ -258,8 +258,9 @@ def test_expo_copies_are_stick_slip_only(settled):
 
 
 def _logged_intervals(switches, window, limit):
-    """The drive's count of logged intervals in one output step (every switch begins one more
-    interval) until the step ends or the Zeno guard fires, by the guard's rule."""
+    """The drive's logged intervals in one output step (every switch begins one more) until the
+    step ends or the Zeno guard fires, by the guard's rule; one more than the drive logs when
+    the guard fires (it stops before the next interval), so an upper bound."""
     from beamsim.kernels.expo import zeno_count
 
     t_win, guard, k = 0.0, 0, 1
