@@ -18,6 +18,7 @@ from scipy.integrate import solve_ivp
 
 from analysis.poincare import (
     MIN_SAMPLES,
+    blackman_harris,
     cluster_points,
     detect_period,
     periodic_pattern,
@@ -445,6 +446,17 @@ def test_zero_one_oversampling_caveat() -> None:
     assert zero_one_test(phi, stride=1).K < 0.5
     assert oversampling_stride(phi) > 1
     assert zero_one_test(phi, stride="auto").K > 0.9
+
+
+def test_blackman_harris_is_scipys_window_to_the_bit() -> None:
+    # the spectral test's window without importing scipy.signal: scipy's own is the reference
+    from scipy.signal import get_window
+
+    for n in (*range(0, 40), 63, 64, 65, 127, 128, 256, 300, 512, 1024, 2048):
+        ours = blackman_harris(n)
+        ref = get_window("blackmanharris", n, fftbins=True) if n > 0 else np.ones(0)
+        assert ours.shape == ref.shape
+        assert np.array_equal(ours, ref), n
 
 
 def test_spectral_growth_limits() -> None:
