@@ -24,10 +24,12 @@ from beamsim.two_layer import (
 __all__ = ["PreparedPoint", "check_point", "prepare_point", "period_steps", "stack_points", "POINT_KEYS"]
 
 #: steps per forcing period of the fixed-grid integrators (RK4's follows from its stability).
-#: ``expo``'s steps are its output grid (Poincare samples at period ends, the slip statistics
-#: and the divergence test at step ends) and the longest spacing of its checks, not a
-#: discretisation: 16 since results version 14 (64 before; the measurement: docs/model.md)
-DEFAULT_STEPS_PER_PERIOD = {"expo": 16, "newmark": 256}
+#: ``expo``'s steps are its output grid (Poincare samples at period ends, the divergence test
+#: at step ends) and the longest spacing of its checks, not a discretisation: 4 since results
+#: version 18 (16 since version 14, 64 before; the measurements: docs/model.md and
+#: docs/performance.md, "Four output steps per period"); its stick statistics are tallied per
+#: interval, not at the step ends
+DEFAULT_STEPS_PER_PERIOD = {"expo": 4, "newmark": 256}
 
 #: the load of a point that gives neither ``f0`` nor ``f0_rel`` (f0 / f_cr)
 DEFAULT_F0_REL = 2.0

@@ -25,7 +25,7 @@ import numpy as np
 from analysis.pipeline.config import Numerics, as_numerics
 
 #: bump when a code change alters results for unchanged parameters (invalidates all ids)
-RESULTS_VERSION = "17"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
+RESULTS_VERSION = "18"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
 #                        conjugate pairs with damping, kernels with reassociated sums; 8: the
 #                        continuation check (the record kept is the continued one); 9: the
 #                        Lyapunov stage's free copy on expo (numerics.lyapunov.method: auto);
@@ -42,7 +42,10 @@ RESULTS_VERSION = "17"  # 6: adaptive transients, block statistics of lambda_1; 
 #                        steps per period (64 before), their Zeno guard counted per T / 64;
 #                        17: the expo drive's Zeno guard counted per T / 64 too (per output
 #                        step before: where a step had more than 10 nq + 10 switches but no
-#                        window did, the point fell back to the RK4 pair)
+#                        window did, the point fell back to the RK4 pair); 18: expo's
+#                        reference runs' output grid 4 steps per period (16 before), its
+#                        stick fractions time averages per interval (sampled at step ends
+#                        before)
 
 
 def _canonical(value):

@@ -36,7 +36,9 @@ A point kernel ``_<name>_point(p, pt, sched, x0, out, ...)`` integrates point ``
    the first slip in ``tally.stats``; a stick/slip switch inside a step is located (its time
    is a continuous function of the state);
 3. after every step call :func:`beamsim.kernels.common.post_step` (return mapping or slip
-   statistics) and :func:`beamsim.kernels.common.end_of_step` (divergence check, Poincare
+   statistics sampled at the step end; ``expo``, whose steps are a few per period, tallies its
+   stick statistics per interval between switches instead, exactly) and
+   :func:`beamsim.kernels.common.end_of_step` (divergence check, Poincare
    record at period ends, dense output), stopping the point when the latter returns True;
 4. finish with :func:`beamsim.kernels.common.final_flags` (slip indicators, final state).
 

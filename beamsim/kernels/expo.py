@@ -35,7 +35,16 @@ from numba import njit
 from beamsim.kernels import common
 from beamsim.kernels.bundles import LEAF, point_at, schedule_at
 from beamsim.kernels.real_eig import real_eig
-from beamsim.results import FLAG_N_CHECKS, FLAG_N_EVENTS, FLAG_N_PATTERNS, FLAG_N_ZENO
+from beamsim.results import (
+    FLAG_N_CHECKS,
+    FLAG_N_EVENTS,
+    FLAG_N_PATTERNS,
+    FLAG_N_ZENO,
+    STAT_STUCK_W_ALL,
+    STAT_STUCK_W_RECORD,
+    STAT_W_ALL,
+    STAT_W_RECORD,
+)
 
 #: eigen-decompositions of ``C`` stick patterns: pattern bit keys, eigenvalues ``lam``, ``V``,
 #: ``V^-1``, the slips and slip rates of the modes ``SVq = S V_q``, ``SVv = S V_v``, the load
@@ -955,13 +964,46 @@ def zeno_count(t, t_win, guard, window):
     return t_win, guard + 1
 
 
+@njit(**LEAF, inline="always")
+def _stuck_weights(x, pt):
+    """Quadrature weight of the stuck elements (``mode 0``) and of all elements, summed in the
+    same order (so equal to the bit when every element is stuck)."""
+    sw = 0.0
+    tw = 0.0
+    for j in range(x.mode.shape[0]):
+        tw += pt.wq[j]
+        if x.mode[j] == 0:
+            sw += pt.wq[j]
+    return sw, tw
+
+
+@njit(**LEAF, inline="always")
+def _tally_interval(t0, t1, sw, tw, stats, inrec):
+    """Stick statistics of the interval ``[t0, t1]`` spent in one stick pattern (its weights
+    ``sw, tw`` from :func:`_stuck_weights`): the stuck and the total quadrature weight times
+    the interval's length (``beamsim.results.STAT_*``: whole run, and the recorded periods if
+    ``inrec``).  So ``expo``'s stick fractions are time averages, exact, where a sample at the
+    step ends (``common.post_step``, the rule of the other integrators, whose steps are
+    thousands per period) would miss a slip between two output steps; a stick fraction is 1
+    exactly when no element slipped.  (The first slip is noted where it is located,
+    :func:`beamsim.kernels.common.apply_switch`.)"""
+    dt = t1 - t0
+    stats[STAT_STUCK_W_ALL] += sw * dt
+    stats[STAT_W_ALL] += tw * dt
+    if inrec:
+        stats[STAT_STUCK_W_RECORD] += sw * dt
+        stats[STAT_W_RECORD] += tw * dt
+
+
 @njit(cache=True)
-def _step(t0, t_end, slot, cache, wk, x, pt, tally):
-    """Advance from ``t0`` to the step end ``t_end`` through every switch in between.  Zeno
-    guard (:func:`zeno_count`): more than ``10 nq + 10`` switches within
-    :data:`ZENO_WINDOWS_PER_PERIOD`-th of a forcing period, and the state is accepted as it is
-    at the end of that window (a jump in time, counted).  Returns ``(t0, slot)`` for the next
-    step (``slot = -1``: the pattern must be looked up)."""
+def _step(t0, t_end, slot, cache, wk, x, pt, tally, inrec):
+    """Advance from ``t0`` to the step end ``t_end`` through every switch in between, each
+    interval's stick statistics tallied (:func:`_tally_interval`; ``inrec``: the step is in the
+    recorded periods).  Zeno guard (:func:`zeno_count`): more than ``10 nq + 10`` switches
+    within :data:`ZENO_WINDOWS_PER_PERIOD`-th of a forcing period, and the state is accepted as
+    it is at the end of that window (a jump in time, counted, not tallied: the run is flagged,
+    and the pipeline runs the point again on RK4).  Returns ``(t0, slot)`` for the next step
+    (``slot = -1``: the pattern must be looked up)."""
     guard = 0
     window = zeno_window(pt.om)
     t_win = t0
@@ -969,7 +1011,11 @@ def _step(t0, t_end, slot, cache, wk, x, pt, tally):
         if slot < 0:
             slot = _pattern_slot(cache, wk, x, pt)
             project(cache, slot, wk, x, pt)
+        t_start = t0
+        # the interval's pattern is the state's before its switches are applied: tallied first
+        sw, tw = _stuck_weights(x, pt)
         t0, switched = _interval(t0, t_end, slot, cache, wk, x, pt, tally)
+        _tally_interval(t_start, t0, sw, tw, tally.stats, inrec)
         if not switched:
             return t0, slot
         t_win, guard = zeno_count(t0, t_win, guard, window)
@@ -1008,8 +1054,8 @@ def run_point(stk, steps, n_sub, models, out, cache, p):
     for step in range((sched.n_trans + sched.n_rec) * n_per):
         k_step = step + 1
         t_end = k_step * sched.h
-        t0, slot = _step(t0, t_end, slot, cache, wk, x, pt, tally)
-        common.post_step(t_end, x, pt, tally, k_step > sched.n_trans * n_per, False)
+        # slip statistics per interval, exactly (_tally_interval), not sampled by post_step
+        t0, slot = _step(t0, t_end, slot, cache, wk, x, pt, tally, k_step > sched.n_trans * n_per)
         if pt.damp:
             # damping dissipation: remainder of the energy identity (docs/model.md)
             em_, _ = common.energy(x.q, x.v, x.z, pt)
