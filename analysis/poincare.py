@@ -484,8 +484,8 @@ def blackman_harris(n: int) -> NDArray[np.float64]:
     """The periodic (DFT-even) 4-term Blackman-Harris window of ``n`` samples,
     ``w_i = sum_k a_k cos(k theta_i)`` with ``theta`` the ``n + 1`` points from ``-pi`` to ``pi``,
     the last one dropped: scipy's ``signal.get_window("blackmanharris", n, fftbins=True)`` in
-    the same operations, so to the bit (tested), without importing ``scipy.signal`` (about 0.8 s
-    in every process that classifies a record)."""
+    the same operations, so to the bit (tested), without importing ``scipy.signal``, which is
+    slow to import in every process that classifies a record (docs/performance.md)."""
     if n <= 1:
         return np.ones(max(n, 0))
     theta = np.linspace(-np.pi, np.pi, n + 1, dtype=np.float64)
