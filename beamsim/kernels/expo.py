@@ -1054,7 +1054,7 @@ def run_point(stk, steps, n_sub, models, out, cache, p):
     for step in range((sched.n_trans + sched.n_rec) * n_per):
         k_step = step + 1
         t_end = k_step * sched.h
-        # slip statistics per interval, exactly (_tally_interval), not sampled by post_step
+        # stick statistics per interval, exactly (_tally_interval), not sampled by post_step
         t0, slot = _step(t0, t_end, slot, cache, wk, x, pt, tally, k_step > sched.n_trans * n_per)
         if pt.damp:
             # damping dissipation: remainder of the energy identity (docs/model.md)
