@@ -205,10 +205,10 @@ _REGISTERED_MODES: dict = {}
 
 def register_modes(modes) -> None:
     """Make :func:`single_layer_modes` use ``modes`` (an :class:`beamsim.modes.ArchModes`, e.g.
-    read from the workflow's cache ``results/modes/<key>/modes.parquet``) instead of computing."""
-    key = (float(modes.alpha), float(modes.beta), modes.bc)
-    old = _REGISTERED_MODES.get(key)
-    if old is None or old.n_modes < modes.n_modes:
+    read from the workflow's cache ``results/modes/<key>/modes.parquet``) instead of computing
+    the same ``n_modes`` modes of the same geometry."""
+    key = (float(modes.alpha), float(modes.beta), modes.bc, int(modes.n_modes))
+    if key not in _REGISTERED_MODES:
         _REGISTERED_MODES[key] = modes
         single_layer_modes.cache_clear()
 
@@ -216,12 +216,18 @@ def register_modes(modes) -> None:
 @functools.lru_cache(maxsize=64)
 def single_layer_modes(alpha: float, beta: float, n_modes: int, bc: str = "clamped-free"):
     """:func:`beamsim.modes.arch_modes` for a single layer of thickness ``alpha R``, memoised;
-    modes registered with :func:`register_modes` are used (sliced) when they cover ``n_modes``."""
+    modes registered with :func:`register_modes` for the same geometry and the same ``n_modes``
+    are used instead of computing them.  Never a larger registered set's first ``n_modes``:
+    :func:`~beamsim.modes.arch_modes` brackets its roots with a Ritz mesh that depends on the
+    number of modes asked for, so those agree with the ``n_modes`` set to rounding only, and a
+    point's result would depend on which other mode files its process had registered (a grid
+    with ``n_modes`` on an axis: on the chunk's other points; docs/reliability.md, "Arch
+    modes by their count")."""
     from beamsim.modes import arch_modes
 
-    reg = _REGISTERED_MODES.get((float(alpha), float(beta), bc))
-    if reg is not None and reg.n_modes >= n_modes:
-        return reg.truncated(n_modes)
+    reg = _REGISTERED_MODES.get((float(alpha), float(beta), bc, int(n_modes)))
+    if reg is not None:
+        return reg
     return arch_modes(alpha, beta, n_modes, bc=bc)
 
 

@@ -158,9 +158,29 @@ def test_registered_modes_are_used_instead_of_recomputed():
     from beamsim.two_layer import register_modes
 
     alpha, beta = 0.0061, 0.43  # a geometry no other test uses
-    cached = arch_modes(alpha, beta, 4)
-    fake = cached.truncated(4)
+    cached = arch_modes(alpha, beta, 3)
+    fake = cached.truncated(3)
     object.__setattr__(fake, "lam", cached.lam * 1.5)  # distinguishable from a recomputation
     register_modes(fake)
     got = single_layer_modes(alpha, beta, 3)
-    np.testing.assert_array_equal(got.lam, cached.lam[:3] * 1.5)
+    np.testing.assert_array_equal(got.lam, cached.lam * 1.5)
+
+
+def test_a_larger_registered_set_is_not_used_for_fewer_modes():
+    """A point's modes do not depend on which other mode files its process registered: with
+    four modes of its geometry registered, a three-mode model gets ``arch_modes(..., 3)`` to
+    the bit, not the first three of the registered set (``arch_modes`` brackets its roots on a
+    mesh that depends on the count, so those differ from it in the last bits)."""
+    from beamsim.modes import arch_modes
+    from beamsim.two_layer import register_modes
+
+    alpha, beta = 0.0063, 0.41  # a geometry no other test uses
+    four = arch_modes(alpha, beta, 4)
+    fake = four.truncated(4)
+    object.__setattr__(fake, "lam", four.lam * 1.5)  # what a three-mode model must not see
+    register_modes(fake)
+    got = single_layer_modes(alpha, beta, 3)
+    want = arch_modes(alpha, beta, 3)
+    for name in ("lam", "roots", "theta_ref", "coef_w", "coef_u"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
+    np.testing.assert_array_equal(single_layer_modes(alpha, beta, 4).lam, four.lam * 1.5)
