@@ -313,6 +313,40 @@ class TwoLayerModel:
         """(lam, Phi) with the elastic interface everywhere stuck (penalty ``k_t``)."""
         return sla.eigh(self.K_stuck, self.M)
 
+    def stuck_decay_rate(self, rigid: bool = False) -> float:
+        """Slowest decay rate [1 / time unit] of the free vibration of the everywhere-stuck beam:
+        ``-max_k Re lambda_k`` over the eigenvalues of ``[[0, I], [-M^-1 K_P, -M^-1 C_P]]``, with
+        the elastic stick ``K_P = K_stuck``, ``C_P = C`` (structural damping and the interface
+        dashpot), or with ``rigid`` the slip constrained to zero (the rigid stick: ``K``, ``M``
+        and the structural damping on the null space of ``S``; a rigidly stuck dashpot does not
+        move).  ``0`` when a mode is undamped: no damping at all, or a stuck mode's modal
+        damping ``phi_k^T C_P phi_k`` at or below ``1e-12`` of the largest (it deforms no
+        damped element; its eigenvalue's real part is then rounding).
+
+        While every element stays stuck the beam is linear with constant coefficients, so its
+        largest Lyapunov exponent is ``-stuck_decay_rate`` exactly, and when that is negative
+        the free vibration left by the transient decays onto the forced response: the record's
+        attractor is that response, of the forcing period."""
+        if rigid:
+            Z = sla.null_space(self.S)
+            Mp, Kp = Z.T @ self.M @ Z, Z.T @ self.K @ Z
+            Cs = self.C_struct if self.C_struct is not None else np.zeros_like(self.M)
+            Cp = Z.T @ Cs @ Z
+        else:
+            Mp, Kp, Cp = self.M, self.K_stuck, self.C
+        if not np.any(Cp):
+            return 0.0
+        phi = sla.eigh(Kp, Mp)[1]  # M-orthonormal undamped stuck modes
+        modal = np.einsum("ak,ab,bk->k", phi, Cp, phi)
+        if modal.min() <= 1e-12 * modal.max():
+            return 0.0
+        m = Mp.shape[0]
+        A = np.zeros((2 * m, 2 * m))
+        A[:m, m:] = np.eye(m)
+        A[m:, :m] = -np.linalg.solve(Mp, Kp)
+        A[m:, m:] = -np.linalg.solve(Mp, Cp)
+        return max(0.0, -float(np.linalg.eigvals(A).real.max()))
+
     def eig_bonded_rigid(self) -> np.ndarray:
         """Eigenvalues with the slip constrained to zero at every interface point (k_t -> inf)."""
         Z = sla.null_space(self.S)

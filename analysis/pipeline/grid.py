@@ -25,7 +25,7 @@ import numpy as np
 from analysis.pipeline.config import Numerics, as_numerics
 
 #: bump when a code change alters results for unchanged parameters (invalidates all ids)
-RESULTS_VERSION = "18"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
+RESULTS_VERSION = "19"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
 #                        conjugate pairs with damping, kernels with reassociated sums; 8: the
 #                        continuation check (the record kept is the continued one); 9: the
 #                        Lyapunov stage's free copy on expo (numerics.lyapunov.method: auto);
@@ -45,7 +45,9 @@ RESULTS_VERSION = "18"  # 6: adaptive transients, block statistics of lambda_1; 
 #                        window did, the point fell back to the RK4 pair); 18: expo's
 #                        reference runs' output grid 4 steps per period (16 before), its
 #                        stick fractions time averages per interval (sampled at step ends
-#                        before)
+#                        before); 19: a record with every element stuck gets the exact
+#                        lambda_1 of the stuck beam and, when that is negative, the label
+#                        periodic-1 (quasi-periodic or a long period before)
 
 
 def _canonical(value):

@@ -396,13 +396,17 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
             for i, est in zip(subset, res):
                 if i in fell_back and asked[i] == "expo":
                     est.free_copy = ZENO_FALLBACK
+                linear = (stuck_lle(prepared[i].model, points[i]["params"])
+                          if skip[i] == LINEAR_VERDICT else np.nan)
                 recs[i] = _lyapunov_record(sim.loc[points[i]["point_id"]], est, skip[i], lopt,
-                                           points[i]["point_id"])
+                                           points[i]["point_id"], linear)
     return recs
 
 
-#: ``lle_verdict`` of a point whose dynamics over the record are linear
-LINEAR_VERDICT = "non-positive: linear (every element stuck over the record), lambda_1 <= 0"
+#: ``lle_verdict`` of a point whose dynamics over the record are linear (its ``lle_mean``,
+#: ``lle_lo`` and ``lle_hi``: the exact exponent, :func:`stuck_lle`)
+LINEAR_VERDICT = ("non-positive: linear (every element stuck over the record), lambda_1 = -(the "
+                  "stuck beam's slowest decay rate)")
 
 
 def long_record_exemption(sim_row: pd.Series, params: dict) -> str | None:
@@ -410,14 +414,15 @@ def long_record_exemption(sim_row: pd.Series, params: dict) -> str | None:
 
     * the record is still a transient (:func:`unsettled_reason`): the label is
       ``unsettled`` whatever the exponent;
+    * the stick-slip or rigid-stick law and every interface point stuck over the record
+      (``stick_fraction`` 1): the dynamics there are linear with constant coefficients, so
+      ``lambda_1`` is known exactly (:data:`LINEAR_VERDICT`, :func:`stuck_lle`), and the
+      classify stage labels the record by it (a periodic-looking record too: a free vibration
+      near a rational frequency ratio reads as a long period).  Not for the regularised laws,
+      whose "stuck" (``|v| < eps_v``) is still the nonlinear traction law;
     * the record is periodic (:func:`analysis.regimes.classify` without an exponent finds a
       period): the period test over the whole record excludes chaos, and the classifier's
-      rule 1 labels it periodic whatever the exponent;
-    * the stick-slip or rigid-stick law and every interface point stuck over the record
-      (``stick_fraction`` 1): the dynamics there are linear with constant coefficients and a
-      non-negative damping, so ``lambda_1 <= 0`` exactly (:data:`LINEAR_VERDICT`).  Not for
-      the regularised laws, whose "stuck" (``|v| < eps_v``) is still the nonlinear traction
-      law.
+      rule 1 labels it periodic whatever the exponent.
     """
     from analysis.regimes import PERIODIC, classify
     from beamsim.friction import STICKING_LAWS
@@ -425,17 +430,28 @@ def long_record_exemption(sim_row: pd.Series, params: dict) -> str | None:
     x = poincare_array(sim_row["poincare_state"])
     if unsettled_reason(sim_row) is not None:
         return "not measured: the record is a transient (unsettled)"
-    if classify(x).label == PERIODIC:
-        return "not measured: periodic record (the period test excludes chaos)"
     if (params.get("law", "stick-slip") in STICKING_LAWS
             and float(sim_row["stick_fraction"]) >= 1.0):
         return LINEAR_VERDICT
+    if classify(x).label == PERIODIC:
+        return "not measured: periodic record (the period test excludes chaos)"
     return None
 
 
-def _lyapunov_record(r: pd.Series, est, exemption: str | None, lopt, pid: str) -> dict:
+def stuck_lle(model, params: dict) -> float:
+    """``lambda_1`` [per unit time] of a record in which every element stays stuck: the
+    dynamics are linear with constant coefficients, so it is minus the slowest decay rate of
+    the stuck beam's free vibration (:meth:`beamsim.two_layer.TwoLayerModel.stuck_decay_rate`;
+    the rigid stick's constrained beam for ``law: rigid-stick``), ``0`` when a stuck mode is
+    undamped."""
+    return -model.stuck_decay_rate(rigid=params.get("law", "stick-slip") == "rigid-stick")
+
+
+def _lyapunov_record(r: pd.Series, est, exemption: str | None, lopt, pid: str,
+                     linear_lle: float = np.nan) -> dict:
     """A point's Lyapunov record: Stefanski, window Benettin, nolds and the label's exponent
-    (the block statistics, or the exemption's bound)."""
+    (the block statistics, or the exemption's: ``linear_lle``, :func:`stuck_lle`, for
+    :data:`LINEAR_VERDICT`)."""
     from analysis.lyapunov.nolds_rosenstein import nolds_lle
 
     period = 2.0 * np.pi / r["omega"]
@@ -457,9 +473,9 @@ def _lyapunov_record(r: pd.Series, est, exemption: str | None, lopt, pid: str) -
     stats = _no_statistics(exemption) | {"lle_mean": est.benettin.value,
                                          "lle_periods": int(lopt.n_periods)}
     if exemption == LINEAR_VERDICT:
-        # the bound, not the window value (a 25-period Benettin value on a torus reads the
-        # neutral directions' finite-time growth, up to +-0.1 per period)
-        stats |= {"lle_mean": 0.0, "lle_lo": -np.inf, "lle_hi": 0.0}
+        # the exact value, not the window's (a 25-period Benettin value on a stuck torus reads
+        # the slowly decaying free vibration's finite-time growth, up to +-0.1 per period)
+        stats |= {"lle_mean": linear_lle, "lle_lo": linear_lle, "lle_hi": linear_lle}
     return out | stats
 
 
@@ -532,8 +548,12 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame,
     is compared with ``lle_threshold`` (:func:`lle_resolution`), and a point whose interval
     straddles it, or whose exponent the Poincare data contradict, is ``undetermined``.
     Where the statistics are missing (diverged copies) the other indicators decide alone.
+    A record in which every element stays stuck (:data:`LINEAR_VERDICT`) with a negative
+    exponent (every stuck mode damped) is periodic of period 1 whatever its Poincare samples
+    show: the motion is the forced response plus a free vibration that decays onto it
+    (:func:`stuck_record_reason`).
     """
-    from analysis.regimes import DIVERGED, UNSETTLED, classify
+    from analysis.regimes import DIVERGED, PERIODIC, UNSETTLED, classify
 
     lle = lyapunov.set_index("point_id")
     rows = []
@@ -560,10 +580,23 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame,
             row.update(label=res.label, period=res.period, reason=res.reason, settled=True,
                        K=ind.get("K", np.nan), spectral_growth=ind.get("spectral_growth", np.nan),
                        n_clusters=ind.get("n_clusters", np.nan))
+            if have and lle.loc[pid].get("lle_verdict") == LINEAR_VERDICT and lam < 0.0:
+                row.update(label=PERIODIC, period=1, reason=stuck_record_reason(lam, res.reason))
         rows.append(row)
     out = pd.DataFrame(rows)
     out["period"] = out["period"].astype("Int64")
     return out
+
+
+def stuck_record_reason(lle_per_period: float, record_reason: str) -> str:
+    """Reason of the label periodic-1 for a record in which every element stays stuck, with
+    ``lambda_1 T = lle_per_period < 0`` (:func:`stuck_lle`) and the classifier's reading of the
+    record itself (``record_reason``)."""
+    return (f"period 1: every element stuck over the record, so the motion is linear: the forced "
+            f"response of the forcing period plus a free vibration that decays onto it at the "
+            f"stuck beam's rates (lambda_1 = {lle_per_period:.3g}/period exactly, the slowest "
+            f"falling by e in {-1.0 / lle_per_period:.3g} periods); the record itself: "
+            f"{record_reason}")
 
 
 # ----------------------------------------------------------------------------- portraits

@@ -171,3 +171,38 @@ def test_a_points_lyapunov_record_does_not_depend_on_its_batch(tmp_path):
             for col in b:
                 assert np.asarray(b[col]).tobytes() == np.asarray(e[col]).tobytes(), (threads, col)
     assert batch[0]["lle_stefanski_verdict"].startswith("chaotic"), batch[0]["lle_stefanski_verdict"]
+
+
+def test_a_stuck_record_gets_the_exact_exponent_and_its_attractor(tmp_path):
+    """A one-mode point of the default friction below the slip onset: every element stays stuck
+    over the record, whose Poincare samples show the free vibration the start-up left (a
+    torus-like set).  The Lyapunov stage gives it the stuck beam's exact exponent (minus the
+    slowest decay rate, not a window value) and the classify stage the attractor: with the
+    interface dashpot every stuck mode is damped, so the free vibration decays onto the forced
+    response, period 1.  Without any damping the stuck modes never decay: exponent 0, and the
+    record's own reading stands (quasi-periodic)."""
+    from analysis.pipeline.stages import LINEAR_VERDICT
+    from beamsim.point import prepare_point
+
+    numerics = {"n_transient": 60, "n_record": 128, "n_transient_max": 60}
+    labels = {}
+    for c_t in (0.0939, 0.0):
+        model = {"n_modes": 1, "mu_s": 0.45, "mu_k": 0.3, "interface_viscosity": c_t,
+                 "Omega": 2.5, "f0_rel": 0.8}
+        pts = expand_grid("t", {"axes": {"Omega": [2.5]}}, model, numerics)
+        payload = [{"point_id": p.point_id, "params": p.params} for p in pts]
+        sim = simulate_points(payload, numerics, str(tmp_path / str(c_t)), threads=1)
+        assert sim["stick_fraction"].iloc[0] == 1.0
+        lyap = lyapunov_points(payload, sim, numerics, str(tmp_path / str(c_t)), threads=1)
+        rec = lyap.iloc[0]
+        rate = prepare_point(**pts[0].params).model.stuck_decay_rate()
+        assert rec["lle_verdict"] == LINEAR_VERDICT
+        assert rec["lle_mean"] == rec["lle_lo"] == rec["lle_hi"] == -rate
+        row = classify_points(sim, lyap).iloc[0]
+        labels[c_t] = (row["label"], row["period"])
+        if c_t > 0:
+            assert rate > 0.0 and "every element stuck over the record" in row["reason"], row["reason"]
+        else:
+            assert rate == 0.0
+    assert labels[0.0939] == ("periodic", 1)
+    assert labels[0.0][0] == "quasi-periodic", labels

@@ -125,6 +125,33 @@ def test_which_points_need_the_long_record():
     assert long_record_exemption(row(torus, 1.0), {"law": "rigid-stick"}) == LINEAR_VERDICT
     assert long_record_exemption(row(torus, 1.0), {"law": "full-slip"}) is None
     assert long_record_exemption(row(torus, 0.9), {}) is None
+    # a stuck record is linear first, periodic-looking or not (its label comes from lambda_1)
+    assert long_record_exemption(row(periodic, 1.0), {"law": "stick-slip"}) == LINEAR_VERDICT
+
+
+def test_a_stuck_record_with_a_negative_exponent_is_periodic_1():
+    """classify_points: a record with every element stuck (LINEAR_VERDICT) is labelled by its
+    exact exponent: negative (the stuck beam's free vibration decays onto the forced response)
+    gives periodic-1 whatever the samples show (here a torus), with the reason; zero (an
+    undamped stuck mode) leaves the samples' reading, quasi-periodic."""
+    from analysis.pipeline.stages import LINEAR_VERDICT
+
+    x = torus2(N)
+    sim = pd.DataFrame([{"point_id": "p", "omega": 1.0, "diverged": False, "n_transient_used": 200,
+                         "poincare_state": x.tolist(), "continuation_reason": ""}])
+    T = 2.0 * np.pi
+    for lam, want in ((-1e-6 / T, ("periodic", 1)), (0.0, (QUASI_PERIODIC, None))):
+        lyap = pd.DataFrame([{"point_id": "p", "lle_mean": lam, "lle_lo": lam, "lle_hi": lam,
+                              "lle_verdict": LINEAR_VERDICT}])
+        row = classify_points(sim, lyap).iloc[0]
+        assert row["label"] == want[0], row["reason"]
+        if want[1] is not None:
+            assert row["period"] == 1 and "every element stuck" in row["reason"]
+            assert "falling by e in 1e+06 periods" in row["reason"], row["reason"]
+    # the same exponent without the linear verdict (a measured one) does not relabel the torus
+    lyap = pd.DataFrame([{"point_id": "p", "lle_mean": -1e-6 / T, "lle_lo": -0.01 / T,
+                          "lle_hi": 0.01 / T, "lle_verdict": "non-positive"}])
+    assert classify_points(sim, lyap).iloc[0]["label"] == QUASI_PERIODIC
 
 
 # ----------------------------------------------------------------------------- continuation check

@@ -184,3 +184,30 @@ def test_a_larger_registered_set_is_not_used_for_fewer_modes():
     for name in ("lam", "roots", "theta_ref", "coef_w", "coef_u"):
         np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
     np.testing.assert_array_equal(single_layer_modes(alpha, beta, 4).lam, four.lam * 1.5)
+
+
+def test_stuck_decay_rate_against_closed_forms_and_perturbation_theory():
+    """TwoLayerModel.stuck_decay_rate (the everywhere-stuck beam's slowest decay, from its
+    first-order eigenvalues): 0 without damping; with a vanishing stick stiffness and modal
+    damping zeta of the frictionless structure, zeta times its first natural frequency (closed
+    form); with the shipped interface dashpot, the first-order perturbation estimate
+    ``min_k phi_k^T C phi_k / 2`` over the undamped stuck modes (light damping: they agree to
+    O(zeta^2)); the rigid stick sees the structural damping only."""
+    from beamsim.point import prepare_point
+
+    base = {"n_modes": 3, "Omega": 2.0, "f0_rel": 1.0, "mu_s": 0.45, "mu_k": 0.3}
+    undamped = prepare_point(**base).model
+    assert undamped.stuck_decay_rate() == 0.0 and undamped.stuck_decay_rate(rigid=True) == 0.0
+
+    soft = prepare_point(**base, damping=0.01, k_t=1e-6).model
+    w01 = math.sqrt(soft.eig_frictionless[0][0])
+    assert soft.stuck_decay_rate() == pytest.approx(0.01 * w01, rel=1e-8)
+
+    shipped = prepare_point(**base, interface_viscosity=0.0939).model
+    phi = shipped.eig_stuck[1]
+    modal = np.einsum("ak,ab,bk->k", phi, shipped.C, phi)
+    rate = shipped.stuck_decay_rate()
+    assert rate > 0.0 and rate == pytest.approx(modal.min() / 2.0, rel=1e-5)
+    assert shipped.stuck_decay_rate(rigid=True) == 0.0  # a rigidly stuck dashpot does not move
+    damped = prepare_point(**base, damping=0.01).model
+    assert damped.stuck_decay_rate(rigid=True) > 0.0
