@@ -135,17 +135,22 @@ def test_every_item_plans_its_runs_from_the_shipped_config():
 
 # ------------------------------------------------------------ measured properties on real runs
 def test_pre_slip_torus(tmp_path):
-    """Fig 10a's claim holds in the model: a beam loaded below its slip onset that never slips
-    (here f0_rel = 0.3 at Omega = 1.5, one mode, the pipeline's interface) is an undamped stuck
-    structure, a torus: quasi-periodic, and the verdict says reproduced.  Where every mapped run
-    slipped the verdict is "data missing", never a torus by default."""
-    base = dict(MODEL, n_modes=1, Omega=1.5, mu_s=0.3, mu_k=0.3)
-    runs = [PaperRun("fig10", "f0=0.5", PAPER_LAW, "classified", dict(base, f0_rel=rel), f0_paper=0.5)
-            for rel in (0.25, 0.3)]
-    m = measure_runs(runs, Numerics(n_transient=40, n_record=128), str(tmp_path))
-    assert not m["slipped"].any()
-    assert set(m["label"]) == {"quasi-periodic"}
-    assert V.pre_slip_verdict(m)["verdict"] == V.REPRODUCED
+    """Fig 10a's claim holds in the paper's model: a beam loaded below its slip onset that never
+    slips (here f0_rel = 0.3 at Omega = 1.5, one mode, no interface dashpot, as in the paper)
+    is an undamped stuck structure, a torus: quasi-periodic, and the verdict says reproduced.
+    With the pipeline's interface dashpot the stuck beam is weakly damped (its free vibration
+    falls by e in about 1e5 periods), so since results version 19 the same runs are labelled
+    by their attractor, the forced response (periodic-1), and the verdict is qualitative.
+    Where every mapped run slipped the verdict is "data missing", never a torus by default."""
+    for zeta_t, label, verdict in ((0.0, "quasi-periodic", V.REPRODUCED),
+                                   (MODEL["interface_damping"], "periodic", V.QUALITATIVE)):
+        base = dict(MODEL, n_modes=1, Omega=1.5, mu_s=0.3, mu_k=0.3, interface_damping=zeta_t)
+        runs = [PaperRun("fig10", "f0=0.5", PAPER_LAW, "classified", dict(base, f0_rel=rel), f0_paper=0.5)
+                for rel in (0.25, 0.3)]
+        m = measure_runs(runs, Numerics(n_transient=40, n_record=128), str(tmp_path / str(zeta_t)))
+        assert not m["slipped"].any()
+        assert set(m["label"]) == {label}
+        assert V.pre_slip_verdict(m)["verdict"] == verdict
     slipped = m.assign(slipped=True)
     assert V.pre_slip_verdict(slipped)["verdict"] == V.DATA_MISSING
 
