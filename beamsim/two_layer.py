@@ -320,10 +320,10 @@ class TwoLayerModel:
         dashpot), or with ``rigid`` the slip constrained to zero (the rigid stick: ``K``, ``M``
         and the structural damping on the null space of ``S``; a rigidly stuck dashpot does not
         move).  ``0`` when a mode is undamped: no damping at all, or a stuck mode's modal
-        damping ``phi_k^T C_P phi_k`` at or below ``1e-13`` of the largest (it deforms no
-        damped element: the rounding of an exact zero is about 1e-16 of the largest, and its
-        eigenvalue's real part is then rounding too; the interface dashpot's smallest share
-        falls as ``1 / k_t^2``, values in docs/classification.md, rule 3).
+        damping ``phi_k^T C_P phi_k`` at or below ``1e-13`` of the largest (a mode that deforms
+        no damped element, whose eigenvalue's real part is then rounding; a safeguard, not a
+        proof: the form's rounding and the dashpot's smallest share, which falls as ``1 /
+        k_t^2``, are in docs/classification.md, rule 3).
 
         While every element stays stuck the beam is linear with constant coefficients, so its
         largest Lyapunov exponent is ``-stuck_decay_rate`` exactly, and when that is negative
@@ -338,7 +338,8 @@ class TwoLayerModel:
             Mp, Kp, Cp = self.M, self.K_stuck, self.C
         if not np.any(Cp):
             return 0.0
-        phi = sla.eigh(Kp, Mp)[1]  # M-orthonormal undamped stuck modes
+        # M-orthonormal undamped stuck modes
+        phi = sla.eigh(Kp, Mp)[1] if rigid else self.eig_stuck[1]
         modal = np.einsum("ak,ab,bk->k", phi, Cp, phi)
         if modal.min() <= 1e-13 * modal.max():
             return 0.0
