@@ -19,7 +19,9 @@ k_t study of docs/pipeline.md):
         --set interface_damping=0 --set interface_viscosity=0.0939 --refinements k_t
 
 ``--refinements`` with no name prints the variant's labels only; ``--config`` with a
-``grid_file`` of its own runs the cells of another grid (e.g. a 1-D line through a band).
+``grid_file`` of its own runs the cells of another grid (e.g. a 1-D line through a band);
+``--save PREFIX`` keeps the variant's table and the refinement runs as Parquet files (e.g. to
+join them with a finished map's neighbour support: docs/pipeline.md, "Results version 19").
 
 A few minutes per refinement on 2 cores (20 points); the runs go to a throw-away store.
 """
@@ -73,6 +75,9 @@ def main() -> None:
     ap.add_argument("--continued", action="store_true",
                     help="also run each refinement (not modes) from the variant's end state")
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--save", metavar="PREFIX",
+                    help="write the variant's table and the refinement runs to PREFIX.map.parquet "
+                         "and PREFIX.runs.parquet (for analysis beyond the printed summary)")
     args = ap.parse_args()
 
     cfg = yaml.safe_load(open(args.config))
@@ -115,6 +120,9 @@ def main() -> None:
         if not runs:
             return
         runs = pd.concat(runs, ignore_index=True)
+        if args.save:
+            table.to_parquet(f"{args.save}.map.parquet")
+            runs.to_parquet(f"{args.save}.runs.parquet")
         for _, r in runs[~runs["holds"]].iterrows():
             was = label_text(r["label"], r["period"])
             now = label_text(r["refined_label"], r["refined_period"])
