@@ -10,7 +10,9 @@ reference integrator, recording every period, and reports per cell:
 * the stick fraction over the whole continuation (1: no element slipped);
 * the spread of the Poincare samples of the generalised coordinates (largest distance from
   their mean, relative to the largest coordinate) over the first and the last ``--window``
-  periods: the free vibration's amplitude, which must not grow.
+  periods: the free vibration's amplitude, which must not grow;
+* the map's ``stuck_bound`` (results version 20, ``beamsim.shakedown``): below 1 the record is
+  proven never to slip again, so a slip in the continuation would refute the bound.
 
     .venv/bin/python benchmarks/stuck_records.py                 # results/regimes/default.parquet
     .venv/bin/python benchmarks/stuck_records.py --periods 4000 --cells 40
@@ -73,7 +75,8 @@ def main() -> None:
         cont = params | {k: np.asarray(v, dtype=float).tolist() for k, v in state.items()}
         pts.append({"point_id": point_id(cont, nm), "params": cont})
         rows.append({"Omega": r["Omega"], "f0_rel": r["f0_rel"], "n": model.n, "label": r["label"],
-                     "efold_periods": -1.0 / (r["lle_mean"] * 2.0 * np.pi / r["omega"])})
+                     "efold_periods": -1.0 / (r["lle_mean"] * 2.0 * np.pi / r["omega"]),
+                     "stuck_bound": r.get("stuck_bound", np.nan)})
     print(f"{len(pts)} stuck records of {args.table}, continued {args.periods} periods")
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
@@ -92,6 +95,13 @@ def main() -> None:
     ratio = out["ratio"]
     print(f"stayed stuck: {int((out['stick_fraction'] >= 1.0).sum())} of {len(out)}; spread last / first "
           f"window: median {ratio.median():.4f}, range {ratio.min():.4f}-{ratio.max():.4f}")
+    # the map's proof (results version 20, beamsim.shakedown): below 1, no element can slip again
+    proven = out["stuck_bound"] < 1.0
+    slipped = out["stick_fraction"] < 1.0
+    print(f"bound below 1: {int(proven.sum())} (of them slipped in the continuation: "
+          f"{int((proven & slipped).sum())}, which would refute the bound); bound at or above 1: "
+          f"{int((out['stuck_bound'] >= 1.0).sum())} (slipped: {int((~proven & slipped).sum())}); "
+          f"no bound: {int(out['stuck_bound'].isna().sum())}")
 
 
 if __name__ == "__main__":

@@ -140,14 +140,16 @@ def fig8_verdicts(measured: pd.DataFrame) -> list[dict]:
     return out
 
 
-#: labels that are not a regime: the run could not decide (docs/classification.md)
-NON_RESULTS = ("unsettled", "diverged")
+#: labels that are not a regime: the run could not decide (docs/classification.md): still a
+#: transient, diverged, or ``undetermined`` (the record does not decide between regimes, e.g. a
+#: stuck record whose free vibration can still reach a slip limit: rule 3)
+NON_RESULTS = ("unsettled", "diverged", "undetermined")
 
 
 def _limit_cycle_verdict(rows: pd.DataFrame) -> str:
     """A claimed limit cycle (a fixed point of the Poincare map) at every mapped point, judged
-    on the points that reached a regime (``unsettled`` and ``diverged`` neither confirm nor
-    contradict): period 1 everywhere -> reproduced; periodic (any period) at one point or more and
+    on the points that reached a regime (:data:`NON_RESULTS` neither confirm nor contradict):
+    period 1 everywhere -> reproduced; periodic (any period) at one point or more and
     quasi-periodic at most elsewhere -> reproduced qualitatively; otherwise (chaos, or no
     periodic point) -> false as stated; no point settled -> data missing."""
     settled = rows[~rows["label"].isin(NON_RESULTS)]

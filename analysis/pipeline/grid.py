@@ -25,7 +25,7 @@ import numpy as np
 from analysis.pipeline.config import Numerics, as_numerics
 
 #: bump when a code change alters results for unchanged parameters (invalidates all ids)
-RESULTS_VERSION = "19"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
+RESULTS_VERSION = "20"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
 #                        conjugate pairs with damping, kernels with reassociated sums; 8: the
 #                        continuation check (the record kept is the continued one); 9: the
 #                        Lyapunov stage's free copy on expo (numerics.lyapunov.method: auto);
@@ -47,7 +47,9 @@ RESULTS_VERSION = "19"  # 6: adaptive transients, block statistics of lambda_1; 
 #                        stick fractions time averages per interval (sampled at step ends
 #                        before); 19: a record with every element stuck gets the exact
 #                        lambda_1 of the stuck beam and, when that is negative, the label
-#                        periodic-1 (quasi-periodic or a long period before)
+#                        periodic-1 (quasi-periodic or a long period before); 20: that
+#                        label only where no element can slip again (the stuck record's
+#                        stuck_bound below 1: beamsim.shakedown), undetermined otherwise
 
 
 def _canonical(value):

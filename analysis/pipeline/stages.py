@@ -359,7 +359,7 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
             recs[i] = {"lle_stefanski": np.nan, "lle_stefanski_verdict": "not computed: diverged",
                        "lle_stefanski_lo": np.nan, "lle_stefanski_hi": np.nan,
                        "lle_benettin": np.nan, "lle_nolds": np.nan, "lle_free_copy": "not run",
-                       **_no_statistics("diverged")}
+                       "stuck_bound": np.nan, **_no_statistics("diverged")}
         else:
             good.append(i)
     if good:
@@ -396,10 +396,13 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
             for i, est in zip(subset, res):
                 if i in fell_back and asked[i] == "expo":
                     est.free_copy = ZENO_FALLBACK
+                row = sim.loc[points[i]["point_id"]]
                 linear = (stuck_lle(prepared[i].model, points[i]["params"])
                           if skip[i] == LINEAR_VERDICT else np.nan)
-                recs[i] = _lyapunov_record(sim.loc[points[i]["point_id"]], est, skip[i], lopt,
-                                           points[i]["point_id"], linear)
+                bound = (stuck_bound(prepared[i], row["final_state"])
+                         if skip[i] == LINEAR_VERDICT else np.nan)
+                recs[i] = _lyapunov_record(row, est, skip[i], lopt, points[i]["point_id"], linear,
+                                           bound)
     return recs
 
 
@@ -447,11 +450,24 @@ def stuck_lle(model, params: dict) -> float:
     return -model.stuck_decay_rate(rigid=params.get("law", "stick-slip") == "rigid-stick")
 
 
+def stuck_bound(pp, final_state) -> float:
+    """Of a record in which every element stays stuck, ending at ``final_state`` on a period
+    boundary: the largest ratio over the elements of the bound on their future elastic traction
+    to their slip limit (:func:`beamsim.shakedown.stuck_traction_bound`); below 1, no element can
+    slip again.  ``nan`` for the rigid stick, whose tractions are constraint forces."""
+    if pp.friction.law != "stick-slip":
+        return np.nan
+    from beamsim.shakedown import stuck_traction_bound
+
+    return float(stuck_traction_bound(pp, np.asarray(final_state, dtype=float)).max())
+
+
 def _lyapunov_record(r: pd.Series, est, exemption: str | None, lopt, pid: str,
-                     linear_lle: float = np.nan) -> dict:
+                     linear_lle: float = np.nan, bound: float = np.nan) -> dict:
     """A point's Lyapunov record: Stefanski, window Benettin, nolds and the label's exponent
     (the block statistics, or the exemption's: ``linear_lle``, :func:`stuck_lle`, for
-    :data:`LINEAR_VERDICT`)."""
+    :data:`LINEAR_VERDICT`), and for that exemption the record's ``stuck_bound``
+    (:func:`stuck_bound`; ``nan`` otherwise)."""
     from analysis.lyapunov.nolds_rosenstein import nolds_lle
 
     period = 2.0 * np.pi / r["omega"]
@@ -464,7 +480,8 @@ def _lyapunov_record(r: pd.Series, est, exemption: str | None, lopt, pid: str,
     st = est.stefanski
     out = {"lle_stefanski": st.value, "lle_stefanski_verdict": st.verdict,
            "lle_stefanski_lo": st.bracket[0], "lle_stefanski_hi": st.bracket[1],
-           "lle_benettin": est.benettin.value, "lle_nolds": lle_nolds, "lle_free_copy": est.free_copy}
+           "lle_benettin": est.benettin.value, "lle_nolds": lle_nolds, "lle_free_copy": est.free_copy,
+           "stuck_bound": bound}
     bs = est.statistics
     if bs is not None:
         return out | {"lle_mean": bs.mean, "lle_se": bs.se, "lle_lo": bs.lo, "lle_hi": bs.hi,
@@ -551,9 +568,11 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame,
     A record in which every element stays stuck (:data:`LINEAR_VERDICT`) with a negative
     exponent (every stuck mode damped) is periodic of period 1 whatever its Poincare samples
     show: the motion is the forced response plus a free vibration that decays onto it
-    (:func:`stuck_record_reason`).
+    (:func:`stuck_record_reason`), provided no element can slip again (``stuck_bound`` below 1,
+    or not available); where a later slip is not excluded (``stuck_bound >= 1``) it is
+    ``undetermined`` (:func:`stuck_unproven_reason`).
     """
-    from analysis.regimes import DIVERGED, PERIODIC, UNSETTLED, classify
+    from analysis.regimes import DIVERGED, PERIODIC, UNDETERMINED, UNSETTLED, classify
 
     lle = lyapunov.set_index("point_id")
     rows = []
@@ -581,22 +600,41 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame,
                        K=ind.get("K", np.nan), spectral_growth=ind.get("spectral_growth", np.nan),
                        n_clusters=ind.get("n_clusters", np.nan))
             if have and lle.loc[pid].get("lle_verdict") == LINEAR_VERDICT and lam < 0.0:
-                row.update(label=PERIODIC, period=1, reason=stuck_record_reason(lam, res.reason))
+                bound = float(lle.loc[pid].get("stuck_bound", np.nan))
+                if bound >= 1.0:
+                    row.update(label=UNDETERMINED, period=None,
+                               reason=stuck_unproven_reason(bound, res.reason))
+                else:
+                    row.update(label=PERIODIC, period=1, reason=stuck_record_reason(lam, res.reason, bound))
         rows.append(row)
     out = pd.DataFrame(rows)
     out["period"] = out["period"].astype("Int64")
     return out
 
 
-def stuck_record_reason(lle_per_period: float, record_reason: str) -> str:
+def stuck_record_reason(lle_per_period: float, record_reason: str, bound: float = np.nan) -> str:
     """Reason of the label periodic-1 for a record in which every element stays stuck, with
-    ``lambda_1 T = lle_per_period < 0`` (:func:`stuck_lle`) and the classifier's reading of the
+    ``lambda_1 T = lle_per_period < 0`` (:func:`stuck_lle`), the record's :func:`stuck_bound`
+    (below 1; ``nan``: not available, the rigid stick) and the classifier's reading of the
     record itself (``record_reason``)."""
+    proof = ("" if np.isnan(bound) else
+             f"; no element can slip again: its traction stays below {bound:.3f} of its slip "
+             f"limit for ever (beamsim.shakedown)")
     return (f"period 1: every element stuck over the record, so the motion is linear: the forced "
             f"response of the forcing period plus a free vibration that decays onto it at the "
             f"stuck beam's rates (lambda_1 = {lle_per_period:.3g}/period exactly, the slowest "
-            f"falling by e in {-1.0 / lle_per_period:.3g} periods); the record itself: "
+            f"falling by e in {-1.0 / lle_per_period:.3g} periods){proof}; the record itself: "
             f"{record_reason}")
+
+
+def stuck_unproven_reason(bound: float, record_reason: str) -> str:
+    """Reason of the label ``undetermined`` for a record in which every element stays stuck
+    but whose free vibration can still bring an element to its slip limit (:func:`stuck_bound`
+    ``= bound >= 1``): the record is not yet the attractor."""
+    return (f"every element stuck over the record, but the free vibration left can still bring "
+            f"an element to its slip limit (bound {bound:.3f} of it, beamsim.shakedown): a later "
+            f"slip is not excluded, so the record is not shown to be the attractor; the record "
+            f"itself: {record_reason}")
 
 
 # ----------------------------------------------------------------------------- portraits

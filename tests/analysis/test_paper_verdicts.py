@@ -163,6 +163,11 @@ def test_limit_cycle_claims_skip_unsettled_runs_and_trends_need_the_numbers():
     assert V._limit_cycle_verdict(rows.assign(label=["chaotic", "unsettled", "periodic"])) == V.FALSE
     assert V._limit_cycle_verdict(rows.assign(label="unsettled")) == V.DATA_MISSING
     assert V._limit_cycle_verdict(rows.assign(label="quasi-periodic")) == V.FALSE  # no limit cycle anywhere
+    # an undetermined run (no regime decided: e.g. a stuck record that may slip again) is no
+    # evidence either way, like an unsettled one
+    und = rows.assign(label=["periodic", "undetermined", "periodic"], period=[3, None, 3])
+    assert V._limit_cycle_verdict(und) == V.QUALITATIVE
+    assert V._limit_cycle_verdict(rows.assign(label="undetermined")) == V.DATA_MISSING
 
 
 @pytest.mark.parametrize("case, law", [("f0=5", PAPER_LAW), ("(c, d)", "full-slip")],

@@ -148,6 +148,16 @@ def test_a_stuck_record_with_a_negative_exponent_is_periodic_1():
         if want[1] is not None:
             assert row["period"] == 1 and "every element stuck" in row["reason"]
             assert "falling by e in 1e+06 periods" in row["reason"], row["reason"]
+    # with the end state's bound on the future tractions (beamsim.shakedown): below 1 the label
+    # stands with the proof in its reason; at or above 1 a later slip is not excluded and the
+    # record is undetermined, whatever its exponent
+    for bound, want in ((0.97, "periodic"), (1.0, "undetermined"), (1.3, "undetermined")):
+        lyap = pd.DataFrame([{"point_id": "p", "lle_mean": -1e-6 / T, "lle_lo": -1e-6 / T,
+                              "lle_hi": -1e-6 / T, "lle_verdict": LINEAR_VERDICT, "stuck_bound": bound}])
+        row = classify_points(sim, lyap).iloc[0]
+        assert row["label"] == want, (bound, row["reason"])
+        assert (f"{bound:.3f}" in row["reason"]) and ("slip" in row["reason"]), row["reason"]
+        assert pd.isna(row["period"]) == (want == "undetermined")
     # the same exponent without the linear verdict (a measured one) does not relabel the torus
     lyap = pd.DataFrame([{"point_id": "p", "lle_mean": -1e-6 / T, "lle_lo": -0.01 / T,
                           "lle_hi": 0.01 / T, "lle_verdict": "non-positive"}])

@@ -1,0 +1,75 @@
+"""Can a stuck interface slip again?  A bound on the future tractions of the everywhere-stuck
+beam (elastic shakedown of the Jenkins interface).
+
+While every Jenkins element sticks, the beam is linear with constant coefficients (docs/model.md):
+
+    M q'' + C q' + K_stuck q = g F(t) + k_t S^T W z,   F(t) = f0 (cos(omega t) - 1),
+
+with the sliders ``z`` frozen, ``K_stuck = K + k_t S^T W S`` and ``C`` the structural damping
+plus the interface dashpot.  Its solution from a state ``(q, v)`` at time ``t0`` is the forced
+periodic response ``q_p(t) = q_c + Re(Q e^{i omega t})`` plus a free vibration
+``e(t) = sum_k c_k e^{lambda_k (t - t0)} psi_k`` over the eigenpairs of the first-order matrix
+``[[0, I], [-M^-1 K_stuck, -M^-1 C]]``.  The elastic traction of element ``j`` is
+``tau_j = k_t (S_j q - z_j)``, and since every ``Re lambda_k <= 0``,
+
+    sup_{t >= t0} |tau_j(t)| <= |k_t (S_j q_c - z_j)| + k_t |S_j Q| + sum_k |k_t c_k S_j psi_k|.
+
+If that bound is below the static limit ``tau_s,j = mu_s p_j`` at every element, no element can
+start to slip, ever: the record stays stuck and its motion converges onto the forced response
+(the stuck beam's attractor, period 1, when every mode is damped).  The bound is also nearly
+reached when it is not below the limit: with the forcing and the stuck natural frequencies
+rationally independent, the phases of the terms come arbitrarily close to alignment (Kronecker),
+so an element then slips again unless the free vibration decays first (its slowest modes decay
+by e only in ``1 / stuck_decay_rate`` time units, docs/classification.md, rule 3).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from beamsim.point import PreparedPoint
+
+
+def stuck_traction_bound(pp: PreparedPoint, state: np.ndarray, t0: float = 0.0) -> np.ndarray:
+    """Per interface point, the bound above on ``sup_{t >= t0} |tau_j(t)|`` divided by the static
+    limit ``tau_s,j`` for the everywhere-stuck beam started at time ``t0`` from ``state``.
+
+    Parameters
+    ----------
+    pp : a prepared point of the elastic stick-slip law (``law: stick-slip``).
+    state : the kernels' state vector ``(q, v, z, mode)``, length ``2 n + 2 n_quad``; only
+        ``q``, ``v`` and ``z`` enter (the bound assumes every element stuck from ``t0`` on).
+    t0 : the time of ``state`` in the forcing's clock (dimensionless time; a multiple of the
+        forcing period ``2 pi / omega`` at a record's end).
+
+    Returns
+    -------
+    ratio : array of ``n_quad``; below 1 at every element means that no element can slip again.
+        ``inf`` where ``tau_s,j = 0`` (no stick possible there).
+    """
+    if pp.friction.law != "stick-slip":
+        raise ValueError(f"stuck_traction_bound needs the elastic stick (law stick-slip), got "
+                         f"{pp.friction.law!r}")
+    m = pp.model
+    n, nq = m.n, m.n_quad
+    x = np.asarray(state, dtype=float)
+    if x.size != 2 * n + 2 * nq:
+        raise ValueError(f"state must have {2 * n + 2 * nq} entries, got {x.size}")
+    q, v, z = x[:n], x[n:2 * n], x[2 * n:2 * n + nq]
+    kt, S, w = m.geom.k_t, m.S, pp.omega
+    # forced response: q_c (mean load and the frozen sliders), Q (the harmonic)
+    q_c = np.linalg.solve(m.K_stuck, -pp.f0 * m.g + kt * (S.T @ (m.wq * z)))
+    Q = np.linalg.solve(m.K_stuck - w * w * m.M + 1j * w * m.C, pp.f0 * m.g.astype(complex))
+    rot = Q * np.exp(1j * w * t0)
+    e0 = np.concatenate([q - (q_c + rot.real), v - (1j * w * rot).real])
+    # free vibration in the eigenvectors of the first-order stuck matrix
+    A = np.zeros((2 * n, 2 * n))
+    A[:n, n:] = np.eye(n)
+    A[n:, :n] = -np.linalg.solve(m.M, m.K_stuck)
+    A[n:, n:] = -np.linalg.solve(m.M, m.C)
+    lam, psi = np.linalg.eig(A)
+    c = np.linalg.solve(psi, e0.astype(complex))
+    free = kt * np.abs((S @ psi[:n, :]) * c[None, :]).sum(axis=1)
+    forced = np.abs(kt * (S @ q_c - z)) + kt * np.abs(S @ Q)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(pp.tau_s > 0, (forced + free) / np.where(pp.tau_s > 0, pp.tau_s, 1.0), np.inf)

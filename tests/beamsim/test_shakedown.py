@@ -1,0 +1,132 @@
+"""beamsim.shakedown: the bound on a stuck beam's future interface tractions, against the exact
+linear flow (matrix exponential, scipy) and against the integrator (whether elements slip)."""
+
+import numpy as np
+import pytest
+from scipy.linalg import expm
+
+from beamsim.point import prepare_point
+from beamsim.shakedown import stuck_traction_bound
+from beamsim.simulate import simulate
+
+#: one mode, the default grid's friction, below the static slip onset: the start-up slips, the
+#: record is stuck (tests/analysis/test_pipeline_stages.py uses the same point)
+POINT = {"n_modes": 1, "mu_s": 0.45, "mu_k": 0.3, "interface_viscosity": 0.0939, "Omega": 2.5,
+         "f0_rel": 0.8}
+
+
+@pytest.fixture(scope="module")
+def stuck_end():
+    pp = prepare_point(**POINT)
+    r = simulate(**POINT, n_transient=60, n_record=128, method="expo")
+    assert r.slipped and r.stick_fraction == 1.0
+    return pp, np.asarray(r.final_state, dtype=float)
+
+
+def _parts(pp, x):
+    m = pp.model
+    n, nq = m.n, m.n_quad
+    return m, n, nq, x[:n], x[n:2 * n], x[2 * n:2 * n + nq]
+
+
+def _stuck_flow(pp, x, n_periods, per_period=64):
+    """Elastic tractions / slip limit of the everywhere-stuck beam from ``x`` at t = 0, by the
+    exact propagator of the linear system with the forcing as two oscillator states; yields the
+    ratio per element at every ``T / per_period`` and the state."""
+    m, n, nq, q, v, z = _parts(pp, x)
+    kt, S, w = m.geom.k_t, m.S, pp.omega
+    Mi = np.linalg.inv(m.M)
+    A = np.zeros((2 * n + 2, 2 * n + 2))
+    A[:n, n:2 * n] = np.eye(n)
+    A[n:2 * n, :n] = -Mi @ m.K_stuck
+    A[n:2 * n, n:2 * n] = -Mi @ m.C
+    A[n:2 * n, 2 * n] = pp.f0 * (Mi @ m.g)
+    A[2 * n, 2 * n + 1], A[2 * n + 1, 2 * n] = -w, w
+    # the constant part of the load and the frozen sliders: a static shift
+    shift = np.linalg.solve(m.K_stuck, -pp.f0 * m.g + kt * (S.T @ (m.wq * z)))
+    E = expm(A * (2 * np.pi / w / per_period))
+    y = np.concatenate([q - shift, v, [1.0, 0.0]])
+    for _ in range(n_periods * per_period):
+        y = E @ y
+        yield np.abs(kt * (S @ (y[:n] + shift) - z)) / pp.tau_s, y, shift
+
+
+def test_the_bound_holds_over_a_long_run_and_is_nearly_reached(stuck_end):
+    """Over 2000 periods of the exact stuck flow every element's traction stays below its bound,
+    and the largest comes within 2 % of it (the phases of the forced response and the stuck
+    modes come close to alignment: the bound is not loose)."""
+    pp, x = stuck_end
+    bound = stuck_traction_bound(pp, x)
+    now = np.abs(pp.model.geom.k_t * (pp.model.S @ x[:pp.model.n] - x[2 * pp.model.n:2 * pp.model.n
+                                                                       + pp.model.n_quad])) / pp.tau_s
+    assert np.all(now <= bound)
+    seen = np.zeros_like(bound)
+    for ratio, _, _ in _stuck_flow(pp, x, 2000):
+        seen = np.maximum(seen, ratio)
+    assert np.all(seen <= bound * (1 + 1e-9)), (seen, bound)
+    k = int(np.argmax(bound))
+    assert seen[k] >= 0.98 * bound[k], (seen[k], bound[k])
+    assert bound.max() < 1.0
+
+
+def test_the_bound_does_not_grow_along_the_flow_at_any_phase(stuck_end):
+    """The bound from a later state of the same stuck motion, at a time that is no period
+    boundary (so the forcing's phase enters through ``t0``), is the bound from the first state
+    up to the free vibration's decay: the forced response is separated correctly at any phase."""
+    pp, x = stuck_end
+    m, n, nq, q, v, z = _parts(pp, x)
+    b0 = stuck_traction_bound(pp, x).max()
+    per = 64
+    for k, (_, y, shift) in enumerate(_stuck_flow(pp, x, 3, per), start=1):
+        if k % 23:
+            continue
+        later = np.concatenate([y[:n] + shift, y[n:2 * n], z, np.zeros(nq)])
+        b = stuck_traction_bound(pp, later, t0=k * 2 * np.pi / pp.omega / per).max()
+        assert b <= b0 * (1 + 1e-9) and b >= b0 * (1 - 1e-3), (k, b, b0)
+
+
+@pytest.mark.parametrize("scale", [1.5, 3.0])
+def test_below_the_bound_nothing_slips_above_it_an_element_does(stuck_end, scale):
+    """The integrator (``expo``) from the certified end state: 2000 more periods without a slip.
+    From the same state with its free vibration enlarged (the forced response kept) so that the
+    bound exceeds 1 while every element is still below its limit: an element slips."""
+    pp, x = stuck_end
+    m, n, nq, q, v, z = _parts(pp, x)
+    mode = x[2 * n + nq:]
+    r = simulate(**POINT, q0=q, v0=v, z0=z, mode0=mode, n_transient=0, n_record=2000, method="expo")
+    assert not r.slipped and r.stick_fraction == 1.0
+    kt, S, w = m.geom.k_t, m.S, pp.omega
+    q_c = np.linalg.solve(m.K_stuck, -pp.f0 * m.g + kt * (S.T @ (m.wq * z)))
+    Q = np.linalg.solve(m.K_stuck - w * w * m.M + 1j * w * m.C, pp.f0 * m.g.astype(complex))
+    forced = np.concatenate([q_c + Q.real, (1j * w * Q).real, z, mode])
+    xs = forced + scale * (x - forced)
+    assert stuck_traction_bound(pp, xs).max() > 1.0
+    assert np.all(np.abs(kt * (S @ xs[:n] - z)) < pp.tau_s)
+    r = simulate(**POINT, q0=xs[:n], v0=xs[n:2 * n], z0=z, mode0=mode, n_transient=0, n_record=200,
+                 method="expo")
+    assert r.slipped and r.stick_fraction < 1.0
+
+
+def test_an_undamped_stuck_record_above_the_bound_slips_much_later():
+    """Without the interface dashpot the same point's record is stuck over its 128 periods too,
+    but the free vibration never decays and its bound exceeds 1: the integrator finds a slip
+    thousands of periods later, where a record could not have shown it."""
+    point = POINT | {"interface_viscosity": 0.0}
+    pp = prepare_point(**point)
+    n, nq = pp.model.n, pp.model.n_quad
+    r = simulate(**point, n_transient=60, n_record=128, method="expo")
+    assert r.stick_fraction == 1.0
+    x = np.asarray(r.final_state, dtype=float)
+    assert stuck_traction_bound(pp, x).max() > 1.0
+    r = simulate(**point, q0=x[:n], v0=x[n:2 * n], z0=x[2 * n:2 * n + nq], mode0=x[2 * n + nq:],
+                 n_transient=0, n_record=6000, method="expo")
+    assert r.slipped and r.t_first_slip > 1000 * 2 * np.pi / pp.omega
+
+
+def test_refuses_other_laws_and_wrong_states(stuck_end):
+    pp, x = stuck_end
+    with pytest.raises(ValueError, match="state must have"):
+        stuck_traction_bound(pp, x[:-1])
+    rigid = prepare_point(**(POINT | {"law": "rigid-stick", "mu_s": 0.3}))
+    with pytest.raises(ValueError, match="elastic stick"):
+        stuck_traction_bound(rigid, x)
