@@ -454,12 +454,18 @@ def stuck_bound(pp, final_state) -> float:
     """Of a record in which every element stays stuck, ending at ``final_state`` on a period
     boundary: the largest ratio over the elements of the bound on their future elastic traction
     to their slip limit (:func:`beamsim.shakedown.stuck_traction_bound`); below 1, no element can
-    slip again.  ``nan`` for the rigid stick, whose tractions are constraint forces."""
+    slip again.  ``nan`` for the rigid stick, whose tractions are constraint forces; ``inf`` (not
+    proven) where the stuck beam's modes do not form a basis (a defective first-order matrix),
+    so that such a record is ``undetermined`` rather than a failed batch."""
     if pp.friction.law != "stick-slip":
         return np.nan
     from beamsim.shakedown import stuck_traction_bound
 
-    return float(stuck_traction_bound(pp, np.asarray(final_state, dtype=float)).max())
+    try:
+        return float(stuck_traction_bound(pp, np.asarray(final_state, dtype=float)).max())
+    except np.linalg.LinAlgError as exc:
+        log.info("stuck_bound: no modal basis (%s): not proven", exc)
+        return np.inf
 
 
 def _lyapunov_record(r: pd.Series, est, exemption: str | None, lopt, pid: str,

@@ -130,3 +130,32 @@ def test_refuses_other_laws_and_wrong_states(stuck_end):
     rigid = prepare_point(**(POINT | {"law": "rigid-stick", "mu_s": 0.3}))
     with pytest.raises(ValueError, match="elastic stick"):
         stuck_traction_bound(rigid, x)
+
+
+def test_the_pipeline_reads_a_failed_decomposition_as_not_proven(stuck_end, monkeypatch):
+    """``analysis.pipeline.stages.stuck_bound``: where the stuck beam's modes give no basis (a
+    singular eigenvector matrix) the record is not proven (``inf``: its label becomes
+    undetermined) and the batch goes on; the rigid stick has no bound (``nan``)."""
+    import beamsim.shakedown as sd
+    from analysis.pipeline.stages import stuck_bound
+
+    pp, x = stuck_end
+    assert stuck_bound(pp, x) == stuck_traction_bound(pp, x).max()
+    eig = np.linalg.eig
+
+    def degenerate(column):
+        def fake(a):
+            lam, psi = eig(a)
+            psi[:, 1] = column(psi)
+            return lam, psi
+        return fake
+
+    # two eigenvectors equal to rounding: the coefficients blow up, the bound is far above 1
+    monkeypatch.setattr(sd.np.linalg, "eig", degenerate(lambda psi: psi[:, 0]))
+    assert stuck_bound(pp, x) > 1.0
+    # no basis at all (LAPACK refuses the solve): not proven
+    monkeypatch.setattr(sd.np.linalg, "eig", degenerate(lambda psi: 0.0))
+    assert stuck_bound(pp, x) == np.inf
+    monkeypatch.undo()
+    rigid = prepare_point(**(POINT | {"law": "rigid-stick", "mu_s": 0.3}))
+    assert np.isnan(stuck_bound(rigid, x))
