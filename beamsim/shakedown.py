@@ -28,6 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from beamsim.point import PreparedPoint
+from beamsim.two_layer import first_order_matrix
 
 
 def stuck_traction_bound(pp: PreparedPoint, state: np.ndarray, t0: float = 0.0) -> np.ndarray:
@@ -63,11 +64,7 @@ def stuck_traction_bound(pp: PreparedPoint, state: np.ndarray, t0: float = 0.0) 
     rot = Q * np.exp(1j * w * t0)
     e0 = np.concatenate([q - (q_c + rot.real), v - (1j * w * rot).real])
     # free vibration in the eigenvectors of the first-order stuck matrix
-    A = np.zeros((2 * n, 2 * n))
-    A[:n, n:] = np.eye(n)
-    A[n:, :n] = -np.linalg.solve(m.M, m.K_stuck)
-    A[n:, n:] = -np.linalg.solve(m.M, m.C)
-    lam, psi = np.linalg.eig(A)
+    lam, psi = np.linalg.eig(first_order_matrix(m.M, m.K_stuck, m.C))
     c = np.linalg.solve(psi, e0.astype(complex))
     free = kt * np.abs((S @ psi[:n, :]) * c[None, :]).sum(axis=1)
     forced = np.abs(kt * (S @ q_c - z)) + kt * np.abs(S @ Q)

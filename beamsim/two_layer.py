@@ -343,12 +343,7 @@ class TwoLayerModel:
         modal = np.einsum("ak,ab,bk->k", phi, Cp, phi)
         if modal.min() <= 1e-13 * modal.max():
             return 0.0
-        m = Mp.shape[0]
-        A = np.zeros((2 * m, 2 * m))
-        A[:m, m:] = np.eye(m)
-        A[m:, :m] = -np.linalg.solve(Mp, Kp)
-        A[m:, m:] = -np.linalg.solve(Mp, Cp)
-        return max(0.0, -float(np.linalg.eigvals(A).real.max()))
+        return max(0.0, -float(np.linalg.eigvals(first_order_matrix(Mp, Kp, Cp)).real.max()))
 
     def eig_bonded_rigid(self) -> np.ndarray:
         """Eigenvalues with the slip constrained to zero at every interface point (k_t -> inf)."""
@@ -414,6 +409,17 @@ class TwoLayerModel:
             r = self.S @ q - z
             e += 0.5 * self.geom.k_t * np.sum(self.wq * r * r)
         return float(e)
+
+
+def first_order_matrix(M: np.ndarray, K: np.ndarray, C: np.ndarray) -> np.ndarray:
+    """``[[0, I], [-M^-1 K, -M^-1 C]]``: ``M q'' + C q' + K q = 0`` as ``x' = A x`` with
+    ``x = (q, q')``."""
+    m = M.shape[0]
+    A = np.zeros((2 * m, 2 * m))
+    A[:m, m:] = np.eye(m)
+    A[m:, :m] = -np.linalg.solve(M, K)
+    A[m:, m:] = -np.linalg.solve(M, C)
+    return A
 
 
 def _hats(theta, beta, ns):

@@ -397,10 +397,10 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
                 if i in fell_back and asked[i] == "expo":
                     est.free_copy = ZENO_FALLBACK
                 row = sim.loc[points[i]["point_id"]]
-                linear = (stuck_lle(prepared[i].model, points[i]["params"])
-                          if skip[i] == LINEAR_VERDICT else np.nan)
-                bound = (stuck_bound(prepared[i], row["final_state"])
-                         if skip[i] == LINEAR_VERDICT else np.nan)
+                linear = bound = np.nan
+                if skip[i] == LINEAR_VERDICT:
+                    linear = stuck_lle(prepared[i].model, points[i]["params"])
+                    bound = stuck_bound(prepared[i], row["final_state"])
                 recs[i] = _lyapunov_record(row, est, skip[i], lopt, points[i]["point_id"], linear,
                                            bound)
     return recs

@@ -56,9 +56,9 @@ def test_the_bound_holds_over_a_long_run_and_is_nearly_reached(stuck_end):
     and the largest comes within 2 % of it (the phases of the forced response and the stuck
     modes come close to alignment: the bound is not loose)."""
     pp, x = stuck_end
+    m, n, nq, q, v, z = _parts(pp, x)
     bound = stuck_traction_bound(pp, x)
-    now = np.abs(pp.model.geom.k_t * (pp.model.S @ x[:pp.model.n] - x[2 * pp.model.n:2 * pp.model.n
-                                                                       + pp.model.n_quad])) / pp.tau_s
+    now = np.abs(m.geom.k_t * (m.S @ q - z)) / pp.tau_s
     assert np.all(now <= bound)
     seen = np.zeros_like(bound)
     for ratio, _, _ in _stuck_flow(pp, x, 2000):
