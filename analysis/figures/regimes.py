@@ -105,7 +105,11 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
     those with attractors of two regimes (two different verdicts) cross-hatched (``xx``); on a
     1-D diagram the tip samples of the attractors the start from rest did not reach are drawn
     as open circles in their own label's colour.  On a 2-D map a black dot marks a cell whose
-    label no grid neighbour shares (:mod:`analysis.pipeline.neighbours`)."""
+    label no grid neighbour shares (:mod:`analysis.pipeline.neighbours`), a white cross a point
+    that never slipped, and a white bar one that slipped at first and then stayed stuck at
+    every element over its whole record (``stick_fraction`` 1: the interface does no friction
+    work there, docs/classification.md rule 3); each marker is in the legend, with its count,
+    only where the map has such cells."""
     axes = list(grid["axes"])
     keys = table.apply(_label_key, axis=1)
     present = [k for k in LABEL_COLOURS if (keys == k).any()]
@@ -123,10 +127,19 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
                       vmin=-0.5, vmax=len(LABEL_COLOURS) - 0.5, edgecolors="white", linewidth=0.3)
         if attractors is not None and not attractors.empty:
             _hatch_multistable(ax, attractors, xs, ys, xa, ya, grid, handles)
-        if "slipped" in table.columns:  # initial-slip boundary: hatch points that never slipped
-            for _, row in table[~table["slipped"].astype(bool)].iterrows():
-                ax.plot(row[xa], row[ya], marker="x", ms=3, color="white", mew=0.6)
-            handles.append(plt.Line2D([], [], marker="x", ls="", color="0.3", label="never slipped (stuck)"))
+        if "slipped" in table.columns:  # initial-slip boundary: mark points that never slipped
+            never = table[~table["slipped"].astype(bool)]
+            if len(never):
+                ax.plot(never[xa], never[ya], "x", ms=3, color="white", mew=0.6, ls="")
+                handles.append(plt.Line2D([], [], marker="x", ls="", color="0.3",
+                                          label=f"never slipped ({len(never)})"))
+        if "stick_fraction" in table.columns:  # slipped at first, then locked: no friction work
+            slipped = table["slipped"].astype(bool) if "slipped" in table.columns else True
+            locked = table[(table["stick_fraction"] >= 1.0) & slipped]
+            if len(locked):
+                ax.plot(locked[xa], locked[ya], "_", ms=5, color="white", mew=1.0, ls="")
+                handles.append(plt.Line2D([], [], marker="_", ms=5, mew=1.0, ls="", color="0.3",
+                                          label=f"every element stuck over the record ({len(locked)})"))
         if "neighbours_same" in table.columns:  # labels finer than the grid
             from analysis.pipeline.neighbours import supported
 

@@ -51,8 +51,6 @@ def test_regime_and_lle_figures_are_drawn(tmp_path, axes) -> None:
 def test_multistable_cells_are_marked(tmp_path, axes) -> None:
     """With a multistability table the map outlines the checked cells and hatches the
     multistable ones (its legend counts them); the 1-D diagram adds the other attractors."""
-    import matplotlib.pyplot as plt
-
     table = _table(axes)
     table["point_id"] = [f"p{i}" for i in range(len(table))]
     grid = {"axes": {k: v for k, v in axes.items()}}
@@ -68,23 +66,49 @@ def test_multistable_cells_are_marked(tmp_path, axes) -> None:
                          "n_starts": 3, "n_attractors": n, "n_regimes": n, "multistable": n > 1})
     att = pd.DataFrame(rows)
     att["attractor"] = att["attractor"].astype("Int64")
+    legend = _legend_of(plot_regimes, table, "g", grid, str(tmp_path / "r.png"), dpi=40, attractors=att)
+    assert (tmp_path / "r.png").stat().st_size > 1000
+    if len(axes) == 2:
+        assert "run from other starts (2)" in legend
+        assert "attractors of two regimes (1)" in legend
+        assert "several attractors, regimes not shown to differ (0)" in legend
+    else:
+        assert "other attractors (other starts)" in legend
+
+
+def _legend_of(plot, *args, **kw) -> list[str]:
+    """The legend texts of the figure ``plot(*args, **kw)`` saves."""
+    import matplotlib.pyplot as plt
+
     saved = {}
     real_savefig = plt.Figure.savefig
 
-    def keep(fig, path, **kw):
+    def keep(fig, path, **k):
         saved["legend"] = [t.get_text() for ax in fig.axes for t in (ax.get_legend().get_texts()
                                                                       if ax.get_legend() else [])]
-        return real_savefig(fig, path, **kw)
+        return real_savefig(fig, path, **k)
 
     plt.Figure.savefig = keep
     try:
-        plot_regimes(table, "g", grid, str(tmp_path / "r.png"), dpi=40, attractors=att)
+        plot(*args, **kw)
     finally:
         plt.Figure.savefig = real_savefig
-    assert (tmp_path / "r.png").stat().st_size > 1000
-    if len(axes) == 2:
-        assert "run from other starts (2)" in saved["legend"]
-        assert "attractors of two regimes (1)" in saved["legend"]
-        assert "several attractors, regimes not shown to differ (0)" in saved["legend"]
-    else:
-        assert "other attractors (other starts)" in saved["legend"]
+    return saved["legend"]
+
+
+def test_stuck_and_never_slipped_markers_are_counted_and_only_shown_when_present(tmp_path) -> None:
+    """The never-slipped and the stuck-over-the-record markers appear in the legend with their
+    counts, and not at all on a map without such cells (a legend entry for nothing drawn would
+    read as a claim about the map)."""
+    axes = {"Omega": [1.0, 2.0, 4.0], "f0_rel": [1.0, 1.5, 2.0, 3.0]}
+    table = _table(axes)  # every fifth point never slipped
+    table["stick_fraction"] = 0.4
+    table.loc[[1, 2, 5], "stick_fraction"] = 1.0  # 1, 2: slipped then stuck; 5: never slipped
+    assert not table.loc[5, "slipped"] and table.loc[[1, 2], "slipped"].all()
+    legend = _legend_of(plot_regimes, table, "g", {"axes": axes}, str(tmp_path / "a.png"), dpi=40)
+    assert f"never slipped ({int((~table['slipped']).sum())})" in legend
+    assert "every element stuck over the record (2)" in legend
+    table["slipped"] = True
+    table["stick_fraction"] = 0.4
+    legend = _legend_of(plot_regimes, table, "g", {"axes": axes}, str(tmp_path / "b.png"), dpi=40)
+    assert not [t for t in legend if "never slipped" in t or "stuck over the record" in t]
