@@ -16,11 +16,13 @@ periodic response ``q_p(t) = q_c + Re(Q e^{i omega t})`` plus a free vibration
 
 If that bound is below the static limit ``tau_s,j = mu_s p_j`` at every element, no element can
 start to slip, ever: the record stays stuck and its motion converges onto the forced response
-(the stuck beam's attractor, period 1, when every mode is damped).  The bound is also nearly
-reached when it is not below the limit: with the forcing and the stuck natural frequencies
-rationally independent, the phases of the terms come arbitrarily close to alignment (Kronecker),
-so an element then slips again unless the free vibration decays first (its slowest modes decay
-by e only in ``1 / stuck_decay_rate`` time units, docs/classification.md, rule 3).
+(the stuck beam's attractor, period 1, when every mode is damped).  The bound can also be
+approached when it is not below the limit: with the forcing and the stuck natural frequencies
+rationally independent, the phases of the oscillating terms come arbitrarily close to alignment
+(Kronecker), so an element may slip again unless the free vibration decays first (its slowest
+modes decay by e only in ``1 / stuck_decay_rate`` time units, docs/classification.md, rule 3).
+An overdamped (real) mode's term only shrinks from ``t0`` on and never comes back, so there the
+bound is a bound, not a value the motion returns to.
 """
 
 from __future__ import annotations

@@ -454,18 +454,21 @@ def stuck_bound(pp, final_state) -> float:
     """Of a record in which every element stays stuck, ending at ``final_state`` on a period
     boundary: the largest ratio over the elements of the bound on their future elastic traction
     to their slip limit (:func:`beamsim.shakedown.stuck_traction_bound`); below 1, no element can
-    slip again.  ``nan`` for the rigid stick, whose tractions are constraint forces; ``inf`` (not
-    proven) where the stuck beam's modes do not form a basis (a defective first-order matrix),
-    so that such a record is ``undetermined`` rather than a failed batch."""
+    slip again.  ``nan`` for the rigid stick, whose tractions are constraint forces, and only
+    for it; ``inf`` (not proven) where the bound cannot be computed: a linear solve LAPACK
+    refuses (an exactly singular eigenvector matrix, stuck stiffness or resonance) or a NaN
+    in the result, so that such a record is ``undetermined`` rather than a failed batch or an
+    unproven periodic-1.  A nearly defective basis gives a large finite bound, which is safe."""
     if pp.friction.law != "stick-slip":
         return np.nan
     from beamsim.shakedown import stuck_traction_bound
 
     try:
-        return float(stuck_traction_bound(pp, np.asarray(final_state, dtype=float)).max())
+        bound = float(stuck_traction_bound(pp, np.asarray(final_state, dtype=float)).max())
     except np.linalg.LinAlgError as exc:
-        log.info("stuck_bound: no modal basis (%s): not proven", exc)
+        log.info("stuck_bound: a singular linear solve (%s): not proven", exc)
         return np.inf
+    return np.inf if np.isnan(bound) else bound
 
 
 def _lyapunov_record(r: pd.Series, est, exemption: str | None, lopt, pid: str,

@@ -85,6 +85,33 @@ def test_the_bound_does_not_grow_along_the_flow_at_any_phase(stuck_end):
         assert b <= b0 * (1 + 1e-9) and b >= b0 * (1 - 1e-3), (k, b, b0)
 
 
+@pytest.mark.parametrize("Omega", [0.98, 1.0, 1.02])
+def test_the_forced_part_is_its_full_amplitude_at_any_phase_lag(Omega):
+    """Near a damped resonance of the stuck beam (5 % modal damping, forcing at 0.98-1.02 of its
+    first natural frequency) the forced response lags the load by 50-130 degrees.  From a state
+    on the forced response (no free vibration) the exact flow's largest traction over a period
+    is the bound itself (to the sampling's 1e-5): the bound takes the whole amplitude of the
+    cos and sin parts and the static part with it, not the in-phase part alone."""
+    point = POINT | {"damping": 0.05, "Omega": Omega, "f0_rel": 0.05}
+    pp = prepare_point(**point)
+    m = pp.model
+    n, nq = m.n, m.n_quad
+    kt, S, w = m.geom.k_t, m.S, pp.omega
+    z = np.zeros(nq)
+    q_c = np.linalg.solve(m.K_stuck, -pp.f0 * m.g)
+    Q = np.linalg.solve(m.K_stuck - w * w * m.M + 1j * w * m.C, pp.f0 * m.g.astype(complex))
+    SQ = S @ Q
+    k = int(np.argmax(np.abs(SQ)))
+    assert abs(SQ[k].imag) > 0.7 * abs(SQ[k])  # the out-of-phase part dominates
+    x = np.concatenate([q_c + Q.real, (1j * w * Q).real, z, np.zeros(nq)])
+    bound = stuck_traction_bound(pp, x)
+    seen = np.zeros_like(bound)
+    for ratio, _, _ in _stuck_flow(pp, x, 2, per_period=2048):
+        seen = np.maximum(seen, ratio)
+    assert np.all(seen <= bound * (1 + 1e-9)), (seen, bound)
+    assert np.all(seen >= bound * (1 - 1e-5)), (seen, bound)
+
+
 @pytest.mark.parametrize("scale", [1.5, 3.0])
 def test_below_the_bound_nothing_slips_above_it_an_element_does(stuck_end, scale):
     """The integrator (``expo``) from the certified end state: 2000 more periods without a slip.
@@ -134,7 +161,7 @@ def test_refuses_other_laws_and_wrong_states(stuck_end):
 
 def test_the_pipeline_reads_a_failed_decomposition_as_not_proven(stuck_end, monkeypatch):
     """``analysis.pipeline.stages.stuck_bound``: where the stuck beam's modes give no basis (a
-    singular eigenvector matrix) the record is not proven (``inf``: its label becomes
+    singular eigenvector matrix) or a NaN, the record is not proven (``inf``: its label becomes
     undetermined) and the batch goes on; the rigid stick has no bound (``nan``)."""
     import beamsim.shakedown as sd
     from analysis.pipeline.stages import stuck_bound
@@ -155,6 +182,9 @@ def test_the_pipeline_reads_a_failed_decomposition_as_not_proven(stuck_end, monk
     assert stuck_bound(pp, x) > 1.0
     # no basis at all (LAPACK refuses the solve): not proven
     monkeypatch.setattr(sd.np.linalg, "eig", degenerate(lambda psi: 0.0))
+    assert stuck_bound(pp, x) == np.inf
+    # a NaN in the bound proves nothing either (NaN is the rigid stick's "no bound" alone)
+    monkeypatch.setattr(sd.np.linalg, "eig", degenerate(lambda psi: np.nan))
     assert stuck_bound(pp, x) == np.inf
     monkeypatch.undo()
     rigid = prepare_point(**(POINT | {"law": "rigid-stick", "mu_s": 0.3}))
