@@ -95,8 +95,8 @@ def test_the_forced_part_is_its_full_amplitude_at_any_phase_lag(Omega):
     point = POINT | {"damping": 0.05, "Omega": Omega, "f0_rel": 0.05}
     pp = prepare_point(**point)
     m = pp.model
-    n, nq = m.n, m.n_quad
-    kt, S, w = m.geom.k_t, m.S, pp.omega
+    nq = m.n_quad
+    S, w = m.S, pp.omega
     z = np.zeros(nq)
     q_c = np.linalg.solve(m.K_stuck, -pp.f0 * m.g)
     Q = np.linalg.solve(m.K_stuck - w * w * m.M + 1j * w * m.C, pp.f0 * m.g.astype(complex))
