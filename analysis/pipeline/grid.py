@@ -25,7 +25,7 @@ import numpy as np
 from analysis.pipeline.config import Numerics, as_numerics
 
 #: bump when a code change alters results for unchanged parameters (invalidates all ids)
-RESULTS_VERSION = "20"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
+RESULTS_VERSION = "21"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
 #                        conjugate pairs with damping, kernels with reassociated sums; 8: the
 #                        continuation check (the record kept is the continued one); 9: the
 #                        Lyapunov stage's free copy on expo (numerics.lyapunov.method: auto);
@@ -49,7 +49,11 @@ RESULTS_VERSION = "20"  # 6: adaptive transients, block statistics of lambda_1; 
 #                        lambda_1 of the stuck beam and, when that is negative, the label
 #                        periodic-1 (quasi-periodic or a long period before); 20: that
 #                        label only where no element can slip again (the stuck record's
-#                        stuck_bound below 1: beamsim.shakedown), undetermined otherwise
+#                        stuck_bound below 1: beamsim.shakedown), undetermined otherwise;
+#                        21: the continuation check also tests the record and its
+#                        continuation joined (transient_reason at twice the baseline), and a
+#                        record that only the cluster route calls periodic gets its long
+#                        Benettin record (undetermined where the interval is above the margin)
 
 
 def _canonical(value):

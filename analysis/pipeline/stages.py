@@ -423,9 +423,12 @@ def long_record_exemption(sim_row: pd.Series, params: dict) -> str | None:
       classify stage labels the record by it (a periodic-looking record too: a free vibration
       near a rational frequency ratio reads as a long period).  Not for the regularised laws,
       whose "stuck" (``|v| < eps_v``) is still the nonlinear traction law;
-    * the record is periodic (:func:`analysis.regimes.classify` without an exponent finds a
-      period): the period test over the whole record excludes chaos, and the classifier's
-      rule 1 labels it periodic whatever the exponent.
+    * the record is periodic by the sample-wise period test (:func:`analysis.regimes.classify`
+      without an exponent finds a period ``m`` with ``x[i+m]`` matching ``x[i]`` over the whole
+      record): that excludes chaos, and the classifier's rule 1 labels it periodic whatever the
+      exponent.  A record that only the cluster route calls periodic (tight clusters, "noise
+      suspected") is measured: a chaotic set smaller than the cluster tolerance looks the same,
+      and its exponent decides (``undetermined`` where it lies above the margin).
     """
     from analysis.regimes import PERIODIC, classify
     from beamsim.friction import STICKING_LAWS
@@ -436,7 +439,8 @@ def long_record_exemption(sim_row: pd.Series, params: dict) -> str | None:
     if (params.get("law", "stick-slip") in STICKING_LAWS
             and float(sim_row["stick_fraction"]) >= 1.0):
         return LINEAR_VERDICT
-    if classify(x).label == PERIODIC:
+    res = classify(x)
+    if res.label == PERIODIC and res.indicators["period_test"] is not None:
         return "not measured: periodic record (the period test excludes chaos)"
     return None
 

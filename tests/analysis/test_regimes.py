@@ -30,6 +30,7 @@ from analysis.regimes import (
     LABELS,
     PERIODIC,
     QUASI_PERIODIC,
+    UNDETERMINED,
     UNSETTLED,
     RegimeResult,
     classify,
@@ -513,3 +514,54 @@ def test_class_means_are_those_of_the_definition() -> None:
             np.add.at(sums, idx, x)
             ref = sums / np.bincount(idx, minlength=m)[:, None]
             assert _class_means(x, m, offset).tobytes() == ref.tobytes(), (m, offset)
+
+
+# ----------------------------------------------------------------------------- results version 21
+def _small_chaos(eps: float, n: int = 257) -> np.ndarray:
+    """A period-2 alternation of size 1 with a logistic (r = 4) wobble of size ``eps`` in two
+    other components: chaos (lambda_1 T = ln 2) far below the cluster tolerance (0.05 of the
+    0.1 |x|_max scale floor)."""
+    c = logistic(4.0, n)
+    return np.column_stack([np.where(np.arange(n) % 2 == 0, 1.0, -1.0), eps * c, eps * np.roll(c, 1)])
+
+
+def test_tight_clusters_with_a_chaotic_interval_are_undetermined() -> None:
+    """Rule 1's cluster route ("noise suspected") reads a chaotic set smaller than its tolerance
+    as period 2; with the exponent's interval above the threshold that is a conflict, not a
+    periodic orbit (undetermined).  The sample-wise period test's periodic label with the same
+    interval stays periodic (a record that repeats over its length is not chaotic)."""
+    x = _small_chaos(0.0025)
+    assert classify(x).label == PERIODIC and classify(x).indicators["period_test"] is None
+    res = classify(x, np.log(2.0), lle_interval=(0.6, 0.78), lle_threshold=0.05)
+    assert res.label == UNDETERMINED and "CONFLICT" in res.reason and "tight clusters" in res.reason
+    # below the threshold the clusters stay a periodic orbit with noise
+    assert classify(x, 0.0, lle_interval=(-0.02, 0.02), lle_threshold=0.05).label == PERIODIC
+    exact = np.random.default_rng(0).normal(size=(3, 2))[np.arange(257) % 3]
+    res = classify(exact, np.log(2.0), lle_interval=(0.6, 0.78), lle_threshold=0.05)
+    assert res.label == PERIODIC and res.period == 3 and "CONFLICT" in res.reason
+
+
+def test_only_the_period_test_exempts_a_record_from_the_long_exponent() -> None:
+    """analysis.pipeline.stages.long_record_exemption: the cluster route's periodic reading is
+    measured (its exponent can overrule it), the period test's is not."""
+    import pandas as pd
+
+    from analysis.pipeline.stages import long_record_exemption
+
+    def row(x):
+        return pd.Series({"poincare_state": x.tolist(), "stick_fraction": 0.5})
+
+    assert long_record_exemption(row(_small_chaos(0.0025)), {}) is None
+    exact = np.random.default_rng(0).normal(size=(3, 2))[np.arange(257) % 3]
+    assert "periodic record" in long_record_exemption(row(exact), {})
+
+
+def test_aperiodic_samples_with_a_contracting_exponent_are_undetermined() -> None:
+    """A torus has lambda_1 = 0 and chaos a positive one: aperiodic samples whose interval lies
+    below minus the threshold are neither (a period above m_max, or a remnant still decaying),
+    so undetermined; within +-threshold they stay quasi-periodic."""
+    x = torus2(257)
+    res = classify(x, -1.0, lle_interval=(-1.01, -0.99), lle_threshold=0.05)
+    assert res.label == UNDETERMINED and "contracts" in res.reason
+    assert classify(x, -0.04, lle_interval=(-0.05, -0.03), lle_threshold=0.05).label == QUASI_PERIODIC
+    assert classify(x, 0.0, lle_interval=(-0.2, 0.04), lle_threshold=0.05).label == QUASI_PERIODIC
