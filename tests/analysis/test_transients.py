@@ -216,8 +216,8 @@ def test_known_limit_a_slower_spiral_passes_the_continuation_check() -> None:
 def test_the_joined_check_rarely_alarms_on_stationary_chaos() -> None:
     """Consecutive windows of long logistic (r = 4) and Henon records (the latter as it is and
     mixed into 40 components), 200 pairs each: measured 1 of the 400 distinct joined records
-    called a transient (with the drift test 4; it is left out of the joined check).  A false alarm costs one more check,
-    not the label: the next pair is tested afresh."""
+    called a transient (with the drift test 4; it is left out of the joined check).  A false
+    alarm costs one more check, not the label: the next pair is tested afresh."""
     alarms = 0
     for d in (0, 40):
         w = _chaotic_windows(N, 201, d)
