@@ -356,12 +356,15 @@ def continuation_reason(record: ArrayLike, continued: ArrayLike, *, max_change: 
 
     Three tests, in order: the records' :func:`poincare_signature` differ (a slowly decaying
     period-5 remnant that continuing turns into period 1, a torus that locks); the size of a
-    period-``m`` pattern changes (below); the two records joined (without the continuation's
-    first sample, which is the record's last) fail the halves test or the convergence test of
-    :func:`transient_reason` at twice the record's baseline (a spiral or remnant decaying by
-    1.12-1.25x per record, which one record's 1.25x threshold misses; the drift test is left
-    out here: on the joined records of stationary chaos it raised 3 false alarms in 200
-    logistic pairs and found nothing on the default map the other two did not).  The pattern
+    period-``m`` pattern changes (below); two aperiodic records joined (without the
+    continuation's first sample, which is the record's last) fail the halves test or the
+    convergence test of :func:`transient_reason` at twice the record's baseline (a spiral or
+    remnant decaying by 1.12-1.25x per record, which one record's 1.25x threshold misses; the
+    drift test is left out here: on the joined records of stationary chaos it raised 3 false
+    alarms in 200 logistic pairs and found nothing on the default map the other two did not;
+    periodic readings are left out too: a remnant that keeps the period test within its
+    tolerance does not change their label, and on the default map the joined test kept three
+    period-1 records converging onto their fixed point unsettled at the cap).  The pattern
     test: both records are period ``m > 1`` and the size of the pattern (the largest range
     over the cycle of the ``m`` phase means, per component scale of ``record``) changes by more
     than a factor ``1 + max_change`` from one record to the next -- on a periodic orbit it is
@@ -389,6 +392,8 @@ def continuation_reason(record: ArrayLike, continued: ArrayLike, *, max_change: 
         if abs(np.log(ratio)) > np.log1p(max_change):
             return (f"continuing by {n} periods, the period-{m} pattern "
                     f"{'shrinks' if ratio > 1 else 'grows'} by a factor {max(ratio, 1 / ratio):.3g}")
+    if a != "aperiodic":  # a periodic reading's remnant below the period test's tolerance
+        return None       # does not change its label; its pattern's size is tested above
     joined = np.vstack([np.asarray(record, dtype=float), np.asarray(continued, dtype=float)[1:]])
     why = transient_reason(joined, scale_floor_rtol=scale_floor_rtol, min_drift=np.inf)
     if why is not None:
