@@ -350,7 +350,7 @@ def poincare_signature(poincare: ArrayLike) -> str:
 
 
 def continuation_reason(record: ArrayLike, continued: ArrayLike, *, max_change: float = 0.05,
-                        scale_floor_rtol: float = 0.1) -> str | None:
+                        scale_floor_rtol: float = 0.1, joined: bool = True) -> str | None:
     """Why a record that passed :func:`transient_reason` is still a transient, judged by running
     on (``continued``: the samples of the next periods, same length), or ``None``.
 
@@ -370,6 +370,11 @@ def continuation_reason(record: ArrayLike, continued: ArrayLike, *, max_change: 
     than a factor ``1 + max_change`` from one record to the next -- on a periodic orbit it is
     the same to round-off, on a remnant converging to a fixed point or to a shorter period it
     falls geometrically.
+
+    ``joined=False`` leaves the joined test out: the pipeline does so for a continued record in
+    which every element of a sticking law stays stuck, whose label the exact linear analysis
+    gives (docs/classification.md, rule 3; its free vibration decays onto the forced response
+    over 1e5 periods and more, which the joined test would read as a transient to the cap).
 
     This is what a referee does with a cell (run it longer): it catches transients slower than
     the record, which the record's own trend tests cannot see (they compare parts of one record,
@@ -392,8 +397,8 @@ def continuation_reason(record: ArrayLike, continued: ArrayLike, *, max_change: 
         if abs(np.log(ratio)) > np.log1p(max_change):
             return (f"continuing by {n} periods, the period-{m} pattern "
                     f"{'shrinks' if ratio > 1 else 'grows'} by a factor {max(ratio, 1 / ratio):.3g}")
-    if a != "aperiodic":  # a periodic reading's remnant below the period test's tolerance
-        return None       # does not change its label; its pattern's size is tested above
+    if a != "aperiodic" or not joined:  # a periodic reading's remnant below the period
+        return None  # test's tolerance does not change its label; its pattern's size is tested above
     joined = np.vstack([np.asarray(record, dtype=float), np.asarray(continued, dtype=float)[1:]])
     why = transient_reason(joined, scale_floor_rtol=scale_floor_rtol, min_drift=np.inf)
     if why is not None:

@@ -161,7 +161,8 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
     continued record is kept, and when it differs from the first one
     (:func:`analysis.regimes.continuation_reason`: another Poincare signature or period-m
     pattern size), it is tested in turn; a record kept after a further adaptive transient is
-    checked again; a check run that diverges is kept (the point is ``diverged``).
+    checked again; a check run that diverges is kept (the point is ``diverged``); the check is
+    :func:`_check_reason`.
     ``continuation_reason`` of the record is the last failed check's reason (``""`` when the
     last check passed or none ran): :func:`unsettled_reason` reads it.  A point's continuation
     depends on its own records only (same result in any batch).
@@ -174,7 +175,7 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
     ``pattern_store``: ``expo``'s stick-pattern decompositions
     (:class:`beamsim.pattern_store.PatternStore`; default: one for this call, shared by its
     runs), a cost, not a result."""
-    from analysis.regimes import continuation_reason, transient_reason
+    from analysis.regimes import transient_reason
     from beamsim.pattern_store import PatternStore
     from beamsim.simulate import restart_params, simulate_batch
 
@@ -224,8 +225,7 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
                 if not first_slip[i][0] and r.slipped:
                     first_slip[i] = (True, t0 + r.t_first_slip)
                 if kind == "check":
-                    why = (continuation_reason(results[i].poincare_state, r.poincare_state)
-                           if np.all(np.isfinite(r.poincare_state)) and not r.diverged else None)
+                    why = _check_reason(results[i], r, points[i]["params"].get("law", "stick-slip"))
                     why_continued[i], checked[i] = why or "", why is None
                 else:  # a new record after a transient: not checked yet
                     why_continued[i], checked[i] = "", not nm.continuation_check
@@ -263,6 +263,21 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
             "energy_residual_rel": float(abs(residual) / abs(w_in)) if w_in != 0 else np.nan,
         })
     return out
+
+
+def _check_reason(record, continued, law: str) -> str | None:
+    """The continuation check of the run ``continued`` (a ``SimResult``) against the run before
+    it (:func:`analysis.regimes.continuation_reason`), ``None`` where it passes or the run
+    diverged.  Its joined test is left out where every element of a sticking law stays stuck
+    over ``continued``: the classify stage labels that record by the exact linear analysis
+    (:func:`classify_points`), and its free vibration decays too slowly for any record."""
+    from analysis.regimes import continuation_reason
+    from beamsim.friction import STICKING_LAWS
+
+    if continued.diverged or not np.all(np.isfinite(continued.poincare_state)):
+        return None
+    stuck = continued.stick_fraction >= 1.0 and law in STICKING_LAWS
+    return continuation_reason(record.poincare_state, continued.poincare_state, joined=not stuck)
 
 
 def each_on_threads(fn: Callable[[Item], Result], items: Sequence[Item],

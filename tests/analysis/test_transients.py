@@ -206,6 +206,17 @@ def test_continuing_a_slow_spiral_finds_the_transient(turn: float) -> None:
     assert why is not None and "joined, are a transient: converging" in why, why
 
 
+def test_the_joined_test_can_be_left_out() -> None:
+    """``joined=False`` (the pipeline's choice for a record stuck at every element, which rule 3
+    labels exactly) keeps the signature and pattern tests and drops the joined one."""
+    x = spiral(1.2 ** 2, turn=18, n=2 * N - 1)
+    first, then = x[:N], x[N - 1:]
+    assert continuation_reason(first, then) is not None
+    assert continuation_reason(first, then, joined=False) is None
+    y = remnant(0.003, 1.2 ** 2, 2 * N)
+    assert "pattern shrinks" in continuation_reason(y[:N], y[N:], joined=False)
+
+
 @pytest.mark.xfail(strict=True, reason="a decay slower than about 1.12x per record (an e-fold in "
                    "more than 2200 periods) is not seen by one continuation check")
 def test_known_limit_a_slower_spiral_passes_the_continuation_check() -> None:
@@ -305,7 +316,7 @@ def test_a_record_kept_after_a_further_transient_is_checked_again(monkeypatch) -
 
     monkeypatch.setattr(beamsim.simulate, "simulate_batch", counting_batch)
     monkeypatch.setattr(analysis.regimes, "transient_reason", scripted_transient)
-    monkeypatch.setattr(analysis.regimes, "continuation_reason", lambda a, b: None)
+    monkeypatch.setattr(analysis.regimes, "continuation_reason", lambda a, b, **kw: None)
     nm = Numerics(n_transient=3, n_record=5, n_transient_max=100)
     params = {"n_modes": 1, "law": "stick-slip", "mu_s": 0.3, "mu_k": 0.3, "f0_rel": 2.0, "Omega": 1.5}
     out = simulate_runs([{"point_id": "p", "params": params}], nm, 1)[0]
