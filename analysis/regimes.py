@@ -363,8 +363,8 @@ def continuation_reason(record: ArrayLike, continued: ArrayLike, *, max_change: 
     drift test is left out here: on the joined records of stationary chaos it raised 3 false
     alarms in 200 logistic pairs and found nothing on the default map the other two did not;
     periodic readings are left out too: a remnant that keeps the period test within its
-    tolerance does not change their label, and on the default map the joined test kept three
-    period-1 records converging onto their fixed point unsettled at the cap).  The pattern
+    tolerance does not change their label: joined, a period-1 record of the default map
+    converging onto its fixed point stayed unsettled at the cap).  The pattern
     test: both records are period ``m > 1`` and the size of the pattern (the largest range
     over the cycle of the ``m`` phase means, per component scale of ``record``) changes by more
     than a factor ``1 + max_change`` from one record to the next -- on a periodic orbit it is
@@ -399,8 +399,8 @@ def continuation_reason(record: ArrayLike, continued: ArrayLike, *, max_change: 
                     f"{'shrinks' if ratio > 1 else 'grows'} by a factor {max(ratio, 1 / ratio):.3g}")
     if a != "aperiodic" or not joined:  # a periodic reading's remnant below the period
         return None  # test's tolerance does not change its label; its pattern's size is tested above
-    joined = np.vstack([np.asarray(record, dtype=float), np.asarray(continued, dtype=float)[1:]])
-    why = transient_reason(joined, scale_floor_rtol=scale_floor_rtol, min_drift=np.inf)
+    both = np.vstack([np.asarray(record, dtype=float), np.asarray(continued, dtype=float)[1:]])
+    why = transient_reason(both, scale_floor_rtol=scale_floor_rtol, min_drift=np.inf)
     if why is not None:
         return f"the record and its continuation by {n} periods, joined, are a transient: {why}"
     return None

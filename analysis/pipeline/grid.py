@@ -50,10 +50,12 @@ RESULTS_VERSION = "21"  # 6: adaptive transients, block statistics of lambda_1; 
 #                        periodic-1 (quasi-periodic or a long period before); 20: that
 #                        label only where no element can slip again (the stuck record's
 #                        stuck_bound below 1: beamsim.shakedown), undetermined otherwise;
-#                        21: the continuation check also tests the record and its
-#                        continuation joined (transient_reason at twice the baseline), and a
+#                        21: the continuation check also tests two aperiodic records joined
+#                        (transient_reason at twice the baseline, not for stuck records), a
 #                        record that only the cluster route calls periodic gets its long
-#                        Benettin record (undetermined where the interval is above the margin)
+#                        Benettin record (undetermined where the interval is above the
+#                        margin), aperiodic samples with an interval below minus the margin
+#                        are undetermined
 
 
 def _canonical(value):

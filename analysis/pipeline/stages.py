@@ -160,9 +160,9 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
     within ``n_transient_max`` periods is continued by ``n_record`` periods (no transient); the
     continued record is kept, and when it differs from the first one
     (:func:`analysis.regimes.continuation_reason`: another Poincare signature or period-m
-    pattern size), it is tested in turn; a record kept after a further adaptive transient is
-    checked again; a check run that diverges is kept (the point is ``diverged``); the check is
-    :func:`_check_reason`.
+    pattern size, or aperiodic records that joined are a transient), it is tested in turn; a
+    record kept after a further adaptive transient is checked again; a check run that diverges
+    is kept (the point is ``diverged``); the check is :func:`_check_reason`.
     ``continuation_reason`` of the record is the last failed check's reason (``""`` when the
     last check passed or none ran): :func:`unsettled_reason` reads it.  A point's continuation
     depends on its own records only (same result in any batch).
