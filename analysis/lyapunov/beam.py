@@ -43,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from analysis.lyapunov.block_statistics import UNDETERMINED, BlockPlan, LLEStatistics
+from analysis.lyapunov.block_statistics import BlockPlan, LLEStatistics
 from analysis.lyapunov.result import LLEResult
 from analysis.lyapunov.sync_rule import coupling_cap, exp_clip, perturbation, sync_test, zero_tolerance
 from analysis.lyapunov.sync_search import sync_search
@@ -343,8 +343,8 @@ def _long_records(prepared: list, first: np.ndarray, fin: np.ndarray, inv: np.nd
     stats = [plan.statistics(r, T) for r, T in zip(records, periods)]
     fin = fin.copy()
     while True:
-        todo = [i for i, st in enumerate(stats) if st.verdict == UNDETERMINED and not guarded[i]
-                and records[i].size - 1 < plan.max_periods and np.all(np.isfinite(fin[i]))]
+        todo = [i for i, st in enumerate(stats) if plan.continues(st) and not guarded[i]
+                and np.all(np.isfinite(fin[i]))]
         if not todo:
             return stats
         off = fin[todo, 1:2, :cont] - fin[todo, 0:1, :cont]

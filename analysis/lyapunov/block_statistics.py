@@ -60,7 +60,7 @@ class BlockPlan:
     block: int = 25
     burn_in: int = 25
     min_blocks: int = 3
-    max_blocks: int = 8
+    max_blocks: int = 16
     confidence: float = 0.95
     margin: float = 0.05
 
@@ -85,6 +85,29 @@ class BlockPlan:
         """:func:`block_statistics` of ``log_err`` with this plan's settings."""
         return block_statistics(log_err, period, block=self.block, burn_in=self.burn_in,
                                 confidence=self.confidence, margin=self.margin)
+
+    def continues(self, stats: LLEStatistics) -> bool:
+        """Whether a record with these statistics is run one block further: its verdict is
+        :data:`UNDETERMINED` and it is shorter than :attr:`max_periods`."""
+        return stats.verdict == UNDETERMINED and stats.burn_in + stats.n_periods < self.max_periods
+
+    def sequential(self, log_err: np.ndarray, period: float) -> LLEStatistics:
+        """The statistics this plan stops at on a given record (at least :attr:`max_periods`
+        long): those of the first :attr:`first_periods`, then one block more while
+        :meth:`continues`, as the beam's records are run
+        (:func:`analysis.lyapunov.beam.beam_lle`).  The verdict is taken at every block from
+        ``min_blocks`` on, so its error rates are those of a sequential test, not of one
+        interval (docs/lyapunov.md, section 10)."""
+        log_err = np.asarray(log_err, dtype=float)
+        if log_err.size - 1 < self.max_periods:
+            raise ValueError(f"the record holds {log_err.size - 1} periods, the plan needs "
+                             f"{self.max_periods}")
+        n = self.first_periods
+        stats = self.statistics(log_err[:n + 1], period)
+        while self.continues(stats):
+            n += self.block
+            stats = self.statistics(log_err[:n + 1], period)
+        return stats
 
 
 @dataclass(frozen=True)

@@ -8,8 +8,8 @@ The estimate is a cost model, ``seconds = c * periods / Omega``, per stage and p
 * lyapunov: ``c_lyap(free copy's method, n_modes) * periods / Omega`` (the RK4 pair's also
   scaled by ``0.5 / step_factor``) with ``periods`` the
   Stefanski window ``n_periods`` plus, for the expected share :data:`LONG_RECORD_SHARE` of the
-  points that need the label's long Benettin record, its expected extra length (half-way
-  between the first run and the cap);
+  points that need the label's long Benettin record, its expected extra length (the first run
+  plus the share :data:`LONG_RECORD_REACH` of the way from it to the cap);
 * the adaptive transient adds one continuation (``n_transient + n_record`` periods) to the
   expected share :data:`EXTENDED_SHARE` of the points;
 * the continuation check (``numerics.continuation_check``) adds ``n_record`` periods to every
@@ -58,6 +58,10 @@ COST_MODEL_FILE = Path(__file__).with_name("cost_model.yaml")
 LONG_RUN_SECONDS = 3600
 #: expected share of points whose label needs the long Benettin record (default grid: 0.26)
 LONG_RECORD_SHARE = 1.0 / 3.0
+#: how far a long Benettin record runs on average, as a share of the way from the plan's first
+#: run to its cap (default map, results version 22: 180 periods between 100 and 425, 0.25;
+#: version 21, cap 225: 145, 0.36)
+LONG_RECORD_REACH = 0.25
 #: expected share of points the adaptive transient continues (default grid: 0.29)
 EXTENDED_SHARE = 0.3
 #: expected share of a cell's extra starts that reach an attractor of their own (each then
@@ -146,7 +150,8 @@ def point_seconds(params: Mapping, numerics: Numerics, model: Mapping, stages: I
         free = free_copy_integrator(ly.method, params)
         c = _coefficient(model["lyapunov"][free], n_modes)
         plan = ly.block_plan()
-        extra = max(0.0, 0.5 * (plan.first_periods + plan.max_periods) - ly.n_periods)
+        reach = plan.first_periods + LONG_RECORD_REACH * (plan.max_periods - plan.first_periods)
+        extra = max(0.0, reach - ly.n_periods)
         scale = 0.5 / ly.step_factor if free == "rk4" else 1.0
         seconds += c * (ly.n_periods + LONG_RECORD_SHARE * extra) * scale / omega
     return seconds

@@ -69,11 +69,56 @@ def test_decide_and_plan() -> None:
     assert decide(-0.1, 0.05, 0.05) == NON_POSITIVE
     assert decide(0.0, 0.1, 0.05) == UNDETERMINED
     plan = BlockPlan()
-    assert plan.first_periods == 100 and plan.max_periods == 225
+    assert plan.first_periods == 100 and plan.max_periods == 425
     with pytest.raises(ValueError, match="BlockPlan"):
         BlockPlan(min_blocks=5, max_blocks=3)
     with pytest.raises(ValueError, match="need burn_in"):
         block_statistics(np.zeros(40), T)
+
+
+def sequential_verdicts(plan: BlockPlan, lam_T: float, noise: float, n: int) -> dict[str, int]:
+    """Verdicts of ``plan`` run sequentially on ``n`` independent records (seeds ``0 .. n-1``)."""
+    verdicts = [plan.sequential(record(lam_T, plan.max_periods, noise, seed), T).verdict
+                for seed in range(n)]
+    return {v: verdicts.count(v) for v in (POSITIVE, NON_POSITIVE, UNDETERMINED)}
+
+
+def test_sequential_plan_stops_where_the_verdict_is_first_taken() -> None:
+    """``sequential`` runs the first record, then one block more while undetermined, and its
+    statistics are those of the record cut where it stopped."""
+    plan = BlockPlan(max_blocks=16)
+    stops = set()
+    for seed in range(40):
+        le = record(0.06, plan.max_periods, 1.0, seed)
+        st = plan.sequential(le, T)
+        n = plan.burn_in + st.n_periods
+        stops.add(n)
+        assert st.mean == plan.statistics(le[:n + 1], T).mean
+        assert not plan.continues(st)
+        for m in range(plan.first_periods, n, plan.block):  # undetermined before
+            assert plan.statistics(le[:m + 1], T).verdict == UNDETERMINED
+    assert min(stops) == plan.first_periods and max(stops) == plan.max_periods and len(stops) > 3
+    with pytest.raises(ValueError, match="needs 425"):
+        plan.sequential(record(0.0, 300, 1.0, 0), T)
+
+
+def test_sequential_plan_error_rates() -> None:
+    """The verdict is taken at every block from ``min_blocks`` on, so a record whose true rate
+    is zero (a torus) is called positive more often than one fixed-length interval's 2.5 % would
+    suggest when its blocks are noisy, and more looks raise it; the measured rates
+    (docs/lyapunov.md, section 10) stay small.  Noise 1.0 per period gives a block standard
+    deviation of 0.2 per period, near the noisiest straddling records of the default map."""
+    n = 1000
+    for max_blocks, limit in ((8, 0.04), (16, 0.05)):
+        plan = BlockPlan(max_blocks=max_blocks)
+        zero = sequential_verdicts(plan, 0.0, 1.0, n)
+        assert zero[POSITIVE] / n <= limit, (max_blocks, zero)
+        chaos = sequential_verdicts(plan, 0.3, 1.0, n)
+        assert chaos[NON_POSITIVE] == 0, (max_blocks, chaos)
+    # the longer cap decides more: of records at 0.15 per period, fewer stay undetermined
+    short = sequential_verdicts(BlockPlan(max_blocks=8), 0.15, 0.6, n)
+    long = sequential_verdicts(BlockPlan(max_blocks=16), 0.15, 0.6, n)
+    assert long[UNDETERMINED] < 0.5 * short[UNDETERMINED] and long[POSITIVE] > 0.85 * n, (short, long)
 
 
 def test_classify_with_an_interval() -> None:
