@@ -34,12 +34,8 @@ PLANS = ((25, 25, 3), (10, 5, 2), (5, 5, 4))
 
 def verdict_of(plan: BlockPlan, record: np.ndarray, period: float) -> tuple[str, int]:
     """Verdict and periods used by the adaptive rule on a precomputed record."""
-    n = plan.first_periods
-    while True:
-        st = plan.statistics(record[:n + 1], period)
-        if st.verdict != UNDETERMINED or n + plan.block > plan.max_periods:
-            return st.verdict, n
-        n += plan.block
+    st = plan.sequential(record, period)
+    return st.verdict, st.burn_in + st.n_periods
 
 
 def main() -> None:
