@@ -59,8 +59,8 @@ LONG_RUN_SECONDS = 3600
 #: expected share of points whose label needs the long Benettin record (default grid: 0.26)
 LONG_RECORD_SHARE = 1.0 / 3.0
 #: how far a long Benettin record runs on average, as a share of the way from the plan's first
-#: run to its cap (default map, results version 22: 180 periods between 100 and 425, 0.25;
-#: version 21, cap 225: 145, 0.36)
+#: run to its cap (the default map of results version 21: 180 periods between 100 and 425 at
+#: the 16-block cap, 0.25; 145 between 100 and 225 at the 8-block cap, 0.36)
 LONG_RECORD_REACH = 0.25
 #: expected share of points the adaptive transient continues (default grid: 0.29)
 EXTENDED_SHARE = 0.3

@@ -107,7 +107,7 @@ def test_sequential_plan_error_rates() -> None:
     is zero (a torus) is called positive more often than one fixed-length interval's 2.5 % would
     suggest when its blocks are noisy, and more looks raise it; the measured rates
     (docs/lyapunov.md, section 10) stay small.  Noise 1.0 per period gives a block standard
-    deviation of 0.2 per period, near the noisiest straddling records of the default map."""
+    deviation of 0.2 per period, above the default map's straddling records (0.06-0.18)."""
     n = 1000
     for max_blocks, limit in ((8, 0.04), (16, 0.05)):
         plan = BlockPlan(max_blocks=max_blocks)
