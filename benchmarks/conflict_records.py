@@ -8,8 +8,9 @@ reference trajectory again from rest to where its kept record starts
 (``n_transient_used``) and on for ``--periods`` periods (the pipeline's integrator, one
 thread), and reports:
 
-* the classifier's label on the first 256, 1024 and ``--periods`` samples, with the table's
-  exponent interval (does a longer record turn the spectrum into lines?);
+* the classifier's label on the first 256, 512 (the length of the continuation check's
+  joined records), 1024 and ``--periods`` samples, with the table's exponent interval (does a
+  longer record turn the spectrum into lines?);
 * the drift of the mean tip deflection: the means of the record's 256-period blocks, their
   change from the first block to the last and their standard deviation, over the spread of
   the tip deflection (does the record stay stationary?).
@@ -46,7 +47,7 @@ def reread(row: pd.Series, numerics, periods: int) -> dict:
     lam, lo, hi = (row[k] * T for k in ("lle_mean", "lle_lo", "lle_hi"))
     r = reference_run(params, numerics, n_transient=int(row["n_transient_used"]), n_record=periods)
     out = {"Omega": row["Omega"], "f0_rel": row["f0_rel"], "label": row["label"], "lle_T": lam}
-    for n in sorted({BLOCK, 4 * BLOCK, periods}):
+    for n in sorted({BLOCK, 2 * BLOCK, 4 * BLOCK, periods}):
         if n > periods:
             continue
         res = classify(r.poincare_state[:n + 1], lle_per_period=lam, lle_interval=(lo, hi),
@@ -94,6 +95,7 @@ def main() -> None:
     for name, g in out.groupby("group", sort=False):
         drifting = int((g["drift"].abs() > 0.1).sum())
         print(f"{name}: {len(g)} cells; on {a.periods} samples {counts(g[f'label_{a.periods}'])}"
+              + f"; on {2 * BLOCK}: {counts(g[f'label_{2 * BLOCK}'])}"
               + f"; on {4 * BLOCK}: {counts(g[f'label_{4 * BLOCK}'])}"
               + f"; mean tip deflection drifting by more than 0.1 of the spread: {drifting}"
               + f" (|drift| median {g['drift'].abs().median():.3g}, max {g['drift'].abs().max():.3g})")
