@@ -95,7 +95,8 @@ class BlockPlan:
         """The statistics this plan stops at on a given record (at least :attr:`max_periods`
         long): those of the first :attr:`first_periods`, then one block more while
         :meth:`continues`, as the beam's records are run
-        (:func:`analysis.lyapunov.beam.beam_lle`).  The verdict is taken at every block from
+        (:func:`analysis.lyapunov.beam.beam_lle`, whose first run is :attr:`first_periods` long
+        where the Stefanski window is not longer).  The verdict is taken at every block from
         ``min_blocks`` on, so its error rates are those of a sequential test, not of one
         interval (docs/lyapunov.md, section 10)."""
         log_err = np.asarray(log_err, dtype=float)
@@ -106,6 +107,9 @@ class BlockPlan:
         stats = self.statistics(log_err[:n + 1], period)
         while self.continues(stats):
             n += self.block
+            if n > log_err.size - 1:  # only a stopping rule that ignores the cap gets here
+                raise RuntimeError(f"BlockPlan.continues asked for {n} periods, past the cap "
+                                   f"{self.max_periods}")
             stats = self.statistics(log_err[:n + 1], period)
         return stats
 

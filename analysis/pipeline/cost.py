@@ -8,8 +8,8 @@ The estimate is a cost model, ``seconds = c * periods / Omega``, per stage and p
 * lyapunov: ``c_lyap(free copy's method, n_modes) * periods / Omega`` (the RK4 pair's also
   scaled by ``0.5 / step_factor``) with ``periods`` the
   Stefanski window ``n_periods`` plus, for the expected share :data:`LONG_RECORD_SHARE` of the
-  points that need the label's long Benettin record, its expected extra length (the first run
-  plus the share :data:`LONG_RECORD_REACH` of the way from it to the cap);
+  points that need the label's long Benettin record, the periods its expected length (the first
+  run plus the share :data:`LONG_RECORD_REACH` of the way from it to the cap) adds;
 * the adaptive transient adds one continuation (``n_transient + n_record`` periods) to the
   expected share :data:`EXTENDED_SHARE` of the points;
 * the continuation check (``numerics.continuation_check``) adds ``n_record`` periods to every
@@ -60,7 +60,8 @@ LONG_RUN_SECONDS = 3600
 LONG_RECORD_SHARE = 1.0 / 3.0
 #: how far a long Benettin record runs on average, as a share of the way from the plan's first
 #: run to its cap (the default map of results version 21: 180 periods between 100 and 425 at
-#: the 16-block cap, 0.25; 145 between 100 and 225 at the 8-block cap, 0.36)
+#: the 16-block cap, 0.25; 145 between 100 and 225 at the 8-block cap, 0.36, which this
+#: share estimates 10 % short)
 LONG_RECORD_REACH = 0.25
 #: expected share of points the adaptive transient continues (default grid: 0.29)
 EXTENDED_SHARE = 0.3
