@@ -25,7 +25,8 @@ is another stretch of the same attractor, not the table's record continued.
     .venv/bin/python benchmarks/conflict_records.py --table results/regimes/default.parquet --periods 1024
 
 Needs the table of a finished run (``snakemake -c2 regimes``) and its numerics
-(``config/config.yaml``).  Results: docs/classification.md, "What the conflicts are".
+(``config/config.yaml``).  Results: docs/classification.md, "Known limitations" ("Record
+length: what the conflicts are").
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import yaml
 
 from analysis.pipeline.config import as_numerics
 from analysis.pipeline.stages import reference_run
@@ -55,9 +57,7 @@ def reread(row: pd.Series, numerics, periods: int) -> dict:
     r = reference_run(params, numerics, n_transient=int(row["n_transient_used"]), n_record=periods)
     out = {"Omega": row["Omega"], "f0_rel": row["f0_rel"], "label": row["label"], "lle_T": lam,
            "growth_table": row["spectral_growth"], "K_table": row["K"]}
-    for n in sorted({BLOCK, 2 * BLOCK, 4 * BLOCK, periods}):
-        if n > periods:
-            continue
+    for n in sorted({BLOCK, 2 * BLOCK, 4 * BLOCK, periods}):  # periods >= 4 BLOCK (main)
         res = classify(r.poincare_state[:n + 1], lle_per_period=lam if known else None,
                        lle_interval=(lo, hi) if known else None, lle_threshold=numerics.lyapunov.margin)
         ind = dict(res.indicators)
@@ -72,6 +72,11 @@ def reread(row: pd.Series, numerics, periods: int) -> dict:
     return out
 
 
+def counts(column: pd.Series) -> str:
+    """``"label n, label n, ..."`` of a column of labels, most frequent first."""
+    return ", ".join(f"{k} {v}" for k, v in column.value_counts().items())
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--table", default=str(ROOT / "results" / "regimes" / "default.parquet"))
@@ -80,8 +85,6 @@ def main() -> None:
     a = ap.parse_args()
     if a.periods < 4 * BLOCK:
         ap.error(f"--periods must be >= {4 * BLOCK}")
-    import yaml
-
     numerics = as_numerics(yaml.safe_load(Path(a.config).read_text())["numerics"])
     table = pd.read_parquet(a.table)
     conflict = (table["label"] == "undetermined") & table["reason"].str.contains("CONFLICT")
@@ -97,9 +100,6 @@ def main() -> None:
     with pd.option_context(*show):
         print(out.to_string(index=False))
     print(f"\n{len(out)} cells, {a.periods} periods each, {time.perf_counter() - t0:.0f} s")
-    def counts(column: pd.Series) -> str:
-        return ", ".join(f"{k} {v}" for k, v in column.value_counts().items())
-
     for name, g in out.groupby("group", sort=False):
         drifting = int((g["drift"].abs() > 0.1).sum())
         print(f"{name}: {len(g)} cells; on {a.periods} samples {counts(g[f'label_{a.periods}'])}"
