@@ -50,7 +50,13 @@ from analysis.lyapunov.sync_search import sync_search
 from beamsim.results import ZENO_FALLBACK
 
 __all__ = ["BeamLLE", "attractor_scale", "beam_benettin", "beam_lle", "initial_offset",
-           "response_scale"]
+           "response_scale", "rk4_long_record", "RK4_SECOND_OPINION"]
+
+
+#: :attr:`BeamLLE.free_copy` of a point whose long record the RK4 pair measured again because
+#: the ``expo`` pair's interval was not at or below the margin
+#: (:func:`analysis.pipeline.stages.lyapunov_runs`, ``numerics.lyapunov.confirm``)
+RK4_SECOND_OPINION = "rk4 (the expo pair's interval was not at or below the margin)"
 
 
 @dataclass
@@ -65,9 +71,14 @@ class BeamLLE:
     benettin: LLEResult
     period: float
     statistics: LLEStatistics | None = None
-    #: integrator of the free copy: ``"expo"``, ``"rk4"``, or :data:`ZENO_FALLBACK` (``expo``
-    #: asked for, the point run on RK4 because an ``expo`` trajectory met the Zeno guard)
+    #: integrator of the free copy: ``"expo"``, ``"rk4"``, :data:`ZENO_FALLBACK` (``expo``
+    #: asked for, the point run on RK4 because an ``expo`` trajectory met the Zeno guard) or
+    #: :data:`RK4_SECOND_OPINION` (``statistics`` from the RK4 pair, ``screen`` the ``expo``
+    #: pair's)
     free_copy: str = "rk4"
+    #: the ``expo`` pair's block statistics where the RK4 pair re-measured the long record
+    #: (:func:`rk4_long_record`), else ``None``
+    screen: LLEStatistics | None = None
 
 
 def attractor_scale(poincare_state: np.ndarray, q_ref: np.ndarray, omega: float) -> np.ndarray:
@@ -358,6 +369,36 @@ def _long_records(prepared: list, first: np.ndarray, fin: np.ndarray, inv: np.nd
             records[i] = np.concatenate([records[i], records[i][-1] + (rec[1:] - rec[0])])
             fin[i] = f[k]
             stats[i] = plan.statistics(records[i], periods[i])
+
+
+def rk4_long_record(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, plan: BlockPlan,
+                    e0: float = 1e-6, seed: int = 0, band: tuple[float, float] = (1e-2, 1e2),
+                    steps_per_period: int | None = None, step_factor: float = 0.5,
+                    n_threads: int | None = None) -> list[LLEStatistics]:
+    """Block statistics of the RK4 pair's long Benettin record alone (no Stefanski ladder, no
+    window value): the record :func:`beam_lle` with ``free_method="rk4"`` and the same ``e0``,
+    ``seed``, ``band``, step and ``plan`` measures (to the bit, when its ``n_periods`` is at most
+    ``plan.first_periods``), run ``plan.first_periods`` and then one block at a time while the
+    interval straddles the margin.
+
+    The pipeline's second opinion on an ``expo`` pair's record whose interval is not at or below
+    the margin (``numerics.lyapunov.confirm``, :func:`analysis.pipeline.stages.lyapunov_runs`):
+    at grazing period-1 orbits the ``expo`` pair reads chaos the RK4 pair does not, at two RK4
+    steps (docs/lyapunov.md, section 15).  Arguments as :func:`beam_lle`'s.
+    """
+    from beamsim.coupled_copies import run_copies
+
+    P = len(prepared)
+    scales = np.asarray(scales, dtype=float)
+    inv = 1.0 / scales
+    offs = np.stack([initial_offset(prepared[i], scales[i], e0, seed)[None] for i in range(P)])
+    run_kw = dict(e0=e0, band=band, steps_per_period=steps_per_period, step_factor=step_factor,
+                  n_threads=n_threads, method="rk4")
+    le, fin = run_copies(prepared, np.asarray(x_start, dtype=float), offs, np.zeros((P, 1)), inv,
+                         renorm_period=np.ones((P, 1), np.bool_), return_final=True,
+                         **dict(run_kw, n_periods=plan.first_periods))
+    periods = [2 * math.pi / pp.omega for pp in prepared]
+    return _long_records(prepared, le[:, 0], fin, inv, periods, plan, run_kw, np.zeros(P, np.bool_))
 
 
 def beam_benettin(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_periods: int = 30,

@@ -16,7 +16,7 @@ from typing import Any, Mapping
 from analysis.lyapunov.block_statistics import BlockPlan
 from beamsim.results import INTEGRATORS
 
-__all__ = ["LYAPUNOV_METHODS", "LyapunovNumerics", "Numerics", "as_numerics"]
+__all__ = ["CONFIRM_METHODS", "LYAPUNOV_METHODS", "LyapunovNumerics", "Numerics", "as_numerics"]
 
 #: reference-run integrators the pipeline accepts: the simulator's, and ``auto``
 #: (:func:`analysis.pipeline.stages.integrator`)
@@ -24,6 +24,8 @@ METHODS = ("auto", *INTEGRATORS)
 
 #: integrators of the Lyapunov stage's free copy (:func:`analysis.pipeline.stages.free_copy_integrator`)
 LYAPUNOV_METHODS = ("auto", "rk4", "expo")
+#: second opinions on an ``expo`` pair's long record (:attr:`LyapunovNumerics.confirm`)
+CONFIRM_METHODS = ("rk4", "none")
 
 
 @dataclass(frozen=True)
@@ -54,6 +56,12 @@ class LyapunovNumerics:
         event location has a noise floor near ``1e-6`` of the attractor, so the RK4 pair's
         ``1e-6`` would measure it (docs/lyapunov.md, section 12).  Not part of a point's id
         when the free copy is RK4's (:meth:`Numerics.result_dict`).
+    confirm : second opinion on the ``expo`` pair's long record: ``rk4`` (the default since
+        2026-11-28) measures a record whose interval is not at or below ``margin`` again
+        on the RK4 pair (``step_factor``; :func:`analysis.lyapunov.beam.rk4_long_record`), whose
+        statistics then decide; ``none`` keeps the ``expo`` pair's (at grazing period-1 orbits
+        it reads chaos the RK4 pair does not: docs/lyapunov.md, section 15).  Not part of a
+        point's id where the free copy is RK4's.
     nolds_emb_dim : embedding dimension of the Rosenstein (nolds) estimate.
     block_periods, burn_in, min_blocks, max_blocks, confidence, margin : the long Benettin
         record whose block statistics decide the label
@@ -68,6 +76,7 @@ class LyapunovNumerics:
     method: str = "auto"
     expo_e0: float = 1e-4
     ladder: str = "expo"
+    confirm: str = "rk4"
     nolds_emb_dim: int = 6
     # the long record's defaults are BlockPlan's (one place)
     block_periods: int = BlockPlan.block
@@ -135,6 +144,9 @@ class Numerics:
         if lyap.get("method", LyapunovNumerics.method) not in LYAPUNOV_METHODS:
             raise ValueError(f"numerics.lyapunov.method = {lyap['method']!r}; allowed: "
                              f"{', '.join(LYAPUNOV_METHODS)}")
+        if lyap.get("confirm", LyapunovNumerics.confirm) not in CONFIRM_METHODS:
+            raise ValueError(f"numerics.lyapunov.confirm = {lyap['confirm']!r}; allowed: "
+                             f"{', '.join(CONFIRM_METHODS)}")
         out = cls(**kw, lyapunov=LyapunovNumerics(**lyap))
         if out.n_transient_max < out.n_transient:
             raise ValueError(f"numerics.n_transient_max = {out.n_transient_max} must be >= "
@@ -157,6 +169,7 @@ class Numerics:
             # the RK4 pair of results version 8 and before: the separation of an expo copy does
             # not enter its results, so it does not enter its ids
             del out["lyapunov"]["expo_e0"]
+            del out["lyapunov"]["confirm"]
         if out["lyapunov"]["ladder"] == "expo":
             # the default ladder (results version 13): ids of points that keep it as before
             del out["lyapunov"]["ladder"]

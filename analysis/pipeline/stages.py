@@ -374,7 +374,8 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
             recs[i] = {"lle_stefanski": np.nan, "lle_stefanski_verdict": "not computed: diverged",
                        "lle_stefanski_lo": np.nan, "lle_stefanski_hi": np.nan,
                        "lle_benettin": np.nan, "lle_nolds": np.nan, "lle_free_copy": "not run",
-                       "stuck_bound": np.nan, **_no_statistics("diverged")}
+                       "stuck_bound": np.nan, "lle_expo_mean": np.nan, "lle_expo_lo": np.nan,
+                       "lle_expo_hi": np.nan, **_no_statistics("diverged")}
         else:
             good.append(i)
     if good:
@@ -408,6 +409,8 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
                            free_e0=lopt.expo_e0 if method == "expo" else None,
                            ladder_method="expo" if lopt.ladder == "expo" and method == "expo" else "rk4",
                            pattern_store=pattern_store)
+            if method == "expo" and long_record and lopt.confirm == "rk4":
+                _second_opinion(res, pps, starts, scales, plan, lopt, rk4_steps, threads)
             for i, est in zip(subset, res):
                 if i in fell_back and asked[i] == "expo":
                     est.free_copy = ZENO_FALLBACK
@@ -419,6 +422,32 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
                 recs[i] = _lyapunov_record(row, est, skip[i], lopt, points[i]["point_id"], linear,
                                            bound)
     return recs
+
+
+def _second_opinion(res: list, prepared: list, starts: np.ndarray, scales: np.ndarray, plan,
+                    lopt, rk4_steps: int | None, threads: int) -> None:
+    """Re-measure on the RK4 pair (:func:`analysis.lyapunov.beam.rk4_long_record`) every long
+    record of ``res`` that the ``expo`` pair read with an interval not at or below the margin
+    (positive or straddling), in place: its statistics become the RK4 pair's, the ``expo``
+    pair's are kept as ``est.screen`` and ``est.free_copy`` is :data:`RK4_SECOND_OPINION`.
+
+    Why: at grazing period-1 orbits the ``expo`` pair reads ``lambda_1 T`` up to +0.87 with an
+    interval above the margin where the RK4 pair reads -0.03 to -0.01 at two steps, and over a
+    finished map it reads about 0.05 per period more than the RK4 pair at chaotic cells; where
+    it reads non-positive the RK4 pair did too at every cell measured (docs/lyapunov.md,
+    section 15).  So the cheap pair screens and the converged one decides."""
+    from analysis.lyapunov.beam import RK4_SECOND_OPINION, rk4_long_record
+    from analysis.lyapunov.block_statistics import NON_POSITIVE
+
+    todo = [k for k, est in enumerate(res) if est.free_copy == "expo" and est.statistics is not None
+            and est.statistics.verdict != NON_POSITIVE]
+    if not todo:
+        return
+    stats = rk4_long_record([prepared[k] for k in todo], starts[todo], scales[todo], plan=plan,
+                            steps_per_period=rk4_steps, step_factor=lopt.step_factor, n_threads=threads)
+    for k, st in zip(todo, stats):
+        res[k].screen, res[k].statistics = res[k].statistics, st
+        res[k].free_copy = RK4_SECOND_OPINION
 
 
 #: ``lle_verdict`` of a point whose dynamics over the record are linear (its ``lle_mean``,
@@ -510,6 +539,9 @@ def _lyapunov_record(r: pd.Series, est, exemption: str | None, lopt, pid: str,
            "lle_stefanski_lo": st.bracket[0], "lle_stefanski_hi": st.bracket[1],
            "lle_benettin": est.benettin.value, "lle_nolds": lle_nolds, "lle_free_copy": est.free_copy,
            "stuck_bound": bound}
+    sc = est.screen
+    out |= {"lle_expo_mean": np.nan if sc is None else sc.mean,
+            "lle_expo_lo": np.nan if sc is None else sc.lo, "lle_expo_hi": np.nan if sc is None else sc.hi}
     bs = est.statistics
     if bs is not None:
         return out | {"lle_mean": bs.mean, "lle_se": bs.se, "lle_lo": bs.lo, "lle_hi": bs.hi,

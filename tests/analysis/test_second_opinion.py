@@ -1,0 +1,118 @@
+"""The RK4 pair's second opinion on the ``expo`` pair's long record
+(``numerics.lyapunov.confirm: rk4``; analysis.lyapunov.beam.rk4_long_record,
+analysis.pipeline.stages._second_opinion; docs/lyapunov.md, section 15).
+
+Independent checks: the second opinion is the record the RK4 pair of ``beam_lle`` measures (to
+the bit); it replaces exactly the ``expo`` records whose interval is not at or below the margin
+and keeps the ``expo`` statistics beside it; and at a grazing period-1 orbit of the default map
+(the period test over 256 samples says period 1, so an attracting periodic orbit,
+``lambda_1 <= 0``) the RK4 pair reads a non-positive exponent at two steps, which is what the
+second opinion exists for: the ``expo`` pair reads chaos there."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from beam_copies import CHAOTIC_2MODES
+
+from analysis.lyapunov.beam import (
+    RK4_SECOND_OPINION,
+    attractor_scale,
+    beam_lle,
+    response_scale,
+    rk4_long_record,
+)
+from analysis.lyapunov.block_statistics import NON_POSITIVE, POSITIVE, BlockPlan
+from analysis.pipeline.config import Numerics
+from analysis.pipeline.stages import _second_opinion, reference_run
+from analysis.regimes import classify
+from beamsim.simulate import prepare_point, simulate_batch
+
+ONE_MODE = dict(n_modes=1, mu_k=0.3, interface_damping=0.5)
+SLIPPING = dict(ONE_MODE, Omega=2.5, f0_rel=2.5, mu_s=0.6)   # period-1 orbit with slip
+STUCK = dict(ONE_MODE, Omega=2.5, f0_rel=0.5, mu_s=0.45)     # below onset: undamped, torus
+SHORT = BlockPlan(block=5, burn_in=5, min_blocks=2, max_blocks=4, margin=0.05)
+# the default map's cell (three modes, mu_s 0.45 > mu_k 0.3) at Omega 1.25, f0_rel 1.057, just
+# above the static slip onset, and the transient its table used (map of 2026-11-28)
+GRAZING = dict(n_modes=3, mu_s=0.45, mu_k=0.3, interface_viscosity=0.0939, Omega=1.25,
+               f0_rel=1.05666829058)
+GRAZING_TRANSIENT = 1424
+
+
+def _settled(points, n_transient=30):
+    res = simulate_batch(points, n_transient=n_transient, n_record=30, method="expo", n_threads=2)
+    prepared = [prepare_point(**p) for p in points]
+    scales = np.stack([attractor_scale(r.poincare_state, response_scale(pp), pp.omega)
+                       for r, pp in zip(res, prepared)])
+    return prepared, np.stack([r.final_state for r in res]), scales
+
+
+def test_the_second_opinion_is_the_rk4_pairs_record():
+    """``rk4_long_record`` gives the block statistics of ``beam_lle``'s RK4 free copy with the
+    same plan, bitwise, a point's record independent of the other points in the call, and
+    continues an undetermined record as ``beam_lle`` does."""
+    prepared, starts, scales = _settled([SLIPPING, STUCK])
+    mine = rk4_long_record(prepared, starts, scales, plan=SHORT, n_threads=2)
+    ref = beam_lle(prepared, starts, scales, n_periods=5, plan=SHORT, n_threads=2)
+    alone = rk4_long_record(prepared[1:], starts[1:], scales[1:], plan=SHORT, n_threads=1)
+    for a, est in zip(mine, ref):
+        b = est.statistics
+        assert np.array_equal(a.blocks, b.blocks)
+        assert (a.mean, a.lo, a.hi, a.verdict) == (b.mean, b.lo, b.hi, b.verdict)
+    assert np.array_equal(alone[0].blocks, mine[1].blocks)
+
+
+def test_only_records_not_at_or_below_the_margin_are_measured_again():
+    """``_second_opinion``: the ``expo`` pair's positive record (the two-mode chaotic point) is
+    replaced by the RK4 pair's (``rk4_long_record``'s, to the bit), its ``expo`` statistics kept
+    as ``screen`` and its ``free_copy`` named; a non-positive one (the one-mode slipping orbit)
+    is left as it was."""
+    for point, replaced in ((CHAOTIC_2MODES, True), (SLIPPING, False)):
+        prepared, starts, scales = _settled([point], n_transient=60)
+        res = beam_lle(prepared, starts, scales, n_periods=5, plan=SHORT, n_threads=2,
+                       free_method="expo", free_e0=1e-4, ladder_method="expo")
+        expo = res[0].statistics
+        assert expo.verdict == (POSITIVE if replaced else NON_POSITIVE), expo
+        lopt = Numerics().lyapunov
+        _second_opinion(res, prepared, starts, scales, SHORT, lopt, None, 2)
+        if not replaced:
+            assert res[0].statistics is expo and res[0].screen is None and res[0].free_copy == "expo"
+            continue
+        rk4 = rk4_long_record(prepared, starts, scales, plan=SHORT, step_factor=lopt.step_factor)[0]
+        assert res[0].free_copy == RK4_SECOND_OPINION and res[0].screen is expo
+        assert np.array_equal(res[0].statistics.blocks, rk4.blocks)
+
+
+@pytest.fixture(scope="module")
+def grazing():
+    """The grazing cell from rest, through its table's transient, and 256 recorded periods."""
+    from analysis.pipeline.config import as_numerics
+
+    nm = as_numerics({})
+    r = reference_run(GRAZING, nm, n_transient=GRAZING_TRANSIENT, n_record=256)
+    pp = prepare_point(**GRAZING)
+    return pp, r, attractor_scale(r.poincare_state, response_scale(pp), pp.omega)
+
+
+def test_the_rk4_pair_reads_a_grazing_period_one_orbit_as_non_chaotic(grazing):
+    """At the grazing period-1 orbit the period test finds period 1 over the 256 samples (an
+    attracting orbit: ``lambda_1 <= 0``), and the RK4 pair's long record with the pipeline's
+    plan is non-positive at the pipeline's step factor 0.5 and at 0.25.  The ``expo`` pair's
+    record is printed, not asserted: it read ``lambda_1 T`` +0.87 [+0.47, +1.27] on the map's
+    trajectory (docs/lyapunov.md, section 15), the reason for the second opinion."""
+    pp, r, scale = grazing
+    res = classify(r.poincare_state)
+    assert res.label == "periodic" and res.period == 1 and res.indicators["period_test"] == 1, res.reason
+    plan = Numerics().lyapunov.block_plan()
+    T = 2 * math.pi / pp.omega
+    expo = beam_lle([pp], r.final_state[None], scale[None], n_periods=25, plan=plan, n_threads=2,
+                    free_method="expo", free_e0=1e-4, ladder_method="expo")[0].statistics
+    print(f"\nexpo pair: {expo.summary()}")
+    for sf in (0.5, 0.25):
+        st = rk4_long_record([pp], r.final_state[None], scale[None], plan=plan, step_factor=sf,
+                             n_threads=2)[0]
+        print(f"RK4 pair, step factor {sf}: lambda_1 T = {st.mean * T:+.3f} [{st.lo * T:+.3f}, "
+              f"{st.hi * T:+.3f}] over {st.n_periods} periods: {st.verdict}")
+        assert st.verdict == NON_POSITIVE, (sf, st.mean * T, st.lo * T, st.hi * T)
