@@ -98,6 +98,7 @@ __all__ = [
     "Thresholds",
     "classify",
     "is_settled",
+    "poincare_says_chaotic",
     "transient_reason",
     "continuation_reason",
     "poincare_signature",
@@ -535,6 +536,19 @@ def classify(
     if interval is not None:
         return result(*_aperiodic_interval(ev, votes, lle, interval, th))
     return result(*_aperiodic(ev, votes, lle, th))
+
+
+def poincare_says_chaotic(poincare: ArrayLike) -> bool:
+    """Whether a record says chaos without an exponent: :func:`classify` (no exponent, default
+    thresholds) does not call it periodic, its spectrum is broadband (growth above
+    ``growth_broadband``) and its 0-1 test reads ``K`` above ``k_chaotic`` (both on the series
+    and, where a period-``m`` pattern was found, on its residual: the votes of
+    ``RegimeResult.votes``).  The Lyapunov stage asks the RK4 pair's second opinion on an
+    ``expo`` pair's positive or straddling interval where this is ``False``
+    (:func:`analysis.pipeline.stages.lyapunov_runs`, ``numerics.lyapunov.confirm``)."""
+    res = classify(poincare)
+    return (res.label != PERIODIC and res.votes["spectrum"] == "broadband"
+            and res.votes["zero_one"] == "chaotic")
 
 
 def _small_chaos_reason(ev: _Evidence, lle: float, interval: tuple[float, float],

@@ -25,7 +25,7 @@ METHODS = ("auto", *INTEGRATORS)
 #: integrators of the Lyapunov stage's free copy (:func:`analysis.pipeline.stages.free_copy_integrator`)
 LYAPUNOV_METHODS = ("auto", "rk4", "expo")
 #: second opinions on an ``expo`` pair's long record (:attr:`LyapunovNumerics.confirm`)
-CONFIRM_METHODS = ("rk4", "none")
+CONFIRM_METHODS = ("contradicted", "all", "none")
 
 
 @dataclass(frozen=True)
@@ -56,12 +56,15 @@ class LyapunovNumerics:
         event location has a noise floor near ``1e-6`` of the attractor, so the RK4 pair's
         ``1e-6`` would measure it (docs/lyapunov.md, section 12).  Not part of a point's id
         when the free copy is RK4's (:meth:`Numerics.result_dict`).
-    confirm : second opinion on the ``expo`` pair's long record: ``rk4`` (the default since
-        2026-11-28) measures a record whose interval is not at or below ``margin`` again
-        on the RK4 pair (``step_factor``; :func:`analysis.lyapunov.beam.rk4_long_record`), whose
-        statistics then decide; ``none`` keeps the ``expo`` pair's (at grazing period-1 orbits
-        it reads chaos the RK4 pair does not: docs/lyapunov.md, section 15).  Not part of a
-        point's id where the free copy is RK4's.
+    confirm : second opinion on the ``expo`` pair's long record whose interval is not at or
+        below ``margin``, one of :data:`CONFIRM_METHODS`: ``contradicted`` (the default since
+        2026-11-28) measures such a record again on the RK4 pair (``step_factor``;
+        :func:`analysis.lyapunov.beam.rk4_long_record`), whose statistics then decide, where
+        the Poincare record does not say chaos on its own
+        (:func:`analysis.regimes.poincare_says_chaotic`); ``all`` does so at every such record
+        (on the default map about 4 minutes more); ``none`` keeps the ``expo`` pair's (at
+        grazing period-1 orbits it reads chaos the RK4 pair does not: docs/lyapunov.md,
+        section 15).  Not part of a point's id where the free copy is RK4's.
     nolds_emb_dim : embedding dimension of the Rosenstein (nolds) estimate.
     block_periods, burn_in, min_blocks, max_blocks, confidence, margin : the long Benettin
         record whose block statistics decide the label
@@ -76,7 +79,7 @@ class LyapunovNumerics:
     method: str = "auto"
     expo_e0: float = 1e-4
     ladder: str = "expo"
-    confirm: str = "rk4"
+    confirm: str = "contradicted"
     nolds_emb_dim: int = 6
     # the long record's defaults are BlockPlan's (one place)
     block_periods: int = BlockPlan.block

@@ -409,8 +409,8 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
                            free_e0=lopt.expo_e0 if method == "expo" else None,
                            ladder_method="expo" if lopt.ladder == "expo" and method == "expo" else "rk4",
                            pattern_store=pattern_store)
-            if method == "expo" and long_record and lopt.confirm == "rk4":
-                _second_opinion(res, pps, starts, scales, plan, lopt, rk4_steps, threads)
+            if method == "expo" and long_record and lopt.confirm != "none":
+                _second_opinion(res, pps, starts, scales, records, plan, lopt, rk4_steps, threads)
             for i, est in zip(subset, res):
                 if i in fell_back and asked[i] == "expo":
                     est.free_copy = ZENO_FALLBACK
@@ -424,23 +424,29 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
     return recs
 
 
-def _second_opinion(res: list, prepared: list, starts: np.ndarray, scales: np.ndarray, plan,
-                    lopt, rk4_steps: int | None, threads: int) -> None:
-    """Re-measure on the RK4 pair (:func:`analysis.lyapunov.beam.rk4_long_record`) every long
-    record of ``res`` that the ``expo`` pair read with an interval not at or below the margin
-    (positive or straddling), in place: its statistics become the RK4 pair's, the ``expo``
-    pair's are kept as ``est.screen`` and ``est.free_copy`` is :data:`RK4_SECOND_OPINION`.
+def _second_opinion(res: list, prepared: list, starts: np.ndarray, scales: np.ndarray,
+                    records: list, plan, lopt, rk4_steps: int | None, threads: int) -> None:
+    """Re-measure on the RK4 pair (:func:`analysis.lyapunov.beam.rk4_long_record`), in place,
+    the long records of ``res`` that the ``expo`` pair read with an interval not at or below the
+    margin (positive or straddling) -- with ``lopt.confirm == "contradicted"`` only those whose
+    Poincare record (``records``) does not say chaos on its own
+    (:func:`analysis.regimes.poincare_says_chaotic`), with ``"all"`` every one: their statistics
+    become the RK4 pair's, the ``expo`` pair's are kept as ``est.screen`` and ``est.free_copy``
+    is :data:`analysis.lyapunov.beam.RK4_SECOND_OPINION`.
 
-    Why: at grazing period-1 orbits the ``expo`` pair reads ``lambda_1 T`` up to +0.87 with an
-    interval above the margin where the RK4 pair reads -0.03 to -0.01 at two steps, and over a
-    finished map it reads about 0.05 per period more than the RK4 pair at chaotic cells; where
-    it reads non-positive the RK4 pair did too at every cell measured (docs/lyapunov.md,
-    section 15).  So the cheap pair screens and the converged one decides."""
+    Why (docs/lyapunov.md, section 15): at grazing period-1 orbits the ``expo`` pair reads
+    ``lambda_1 T`` up to +0.87 with an interval above the margin where the RK4 pair reads
+    non-positive at two steps; where the ``expo`` pair reads non-positive the RK4 pair did too
+    at every cell measured, and where the Poincare record says chaos too the two pairs' verdicts
+    differ only through intervals that straddle the margin.  So the cheap pair screens, and the
+    RK4 pair decides where the screen and the record disagree."""
     from analysis.lyapunov.beam import RK4_SECOND_OPINION, rk4_long_record
     from analysis.lyapunov.block_statistics import NON_POSITIVE
+    from analysis.regimes import poincare_says_chaotic
 
     todo = [k for k, est in enumerate(res) if est.free_copy == "expo" and est.statistics is not None
-            and est.statistics.verdict != NON_POSITIVE]
+            and est.statistics.verdict != NON_POSITIVE
+            and (lopt.confirm == "all" or not poincare_says_chaotic(records[k]))]
     if not todo:
         return
     stats = rk4_long_record([prepared[k] for k in todo], starts[todo], scales[todo], plan=plan,

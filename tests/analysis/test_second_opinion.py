@@ -1,5 +1,5 @@
 """The RK4 pair's second opinion on the ``expo`` pair's long record
-(``numerics.lyapunov.confirm: rk4``; analysis.lyapunov.beam.rk4_long_record,
+(``numerics.lyapunov.confirm``; analysis.lyapunov.beam.rk4_long_record,
 analysis.pipeline.stages._second_opinion; docs/lyapunov.md, section 15).
 
 Independent checks: the second opinion is the record the RK4 pair of ``beam_lle`` measures (to
@@ -27,7 +27,7 @@ from analysis.lyapunov.beam import (
 from analysis.lyapunov.block_statistics import NON_POSITIVE, POSITIVE, BlockPlan
 from analysis.pipeline.config import Numerics
 from analysis.pipeline.stages import _second_opinion, reference_run
-from analysis.regimes import classify
+from analysis.regimes import classify, poincare_says_chaotic
 from beamsim.simulate import prepare_point, simulate_batch
 
 ONE_MODE = dict(n_modes=1, mu_k=0.3, interface_damping=0.5)
@@ -65,24 +65,28 @@ def test_the_second_opinion_is_the_rk4_pairs_record():
 
 
 def test_only_records_not_at_or_below_the_margin_are_measured_again():
-    """``_second_opinion``: the ``expo`` pair's positive record (the two-mode chaotic point) is
-    replaced by the RK4 pair's (``rk4_long_record``'s, to the bit), its ``expo`` statistics kept
-    as ``screen`` and its ``free_copy`` named; a non-positive one (the one-mode slipping orbit)
-    is left as it was."""
+    """``_second_opinion`` with ``confirm: all``: the ``expo`` pair's positive record (the
+    two-mode chaotic point) is replaced by the RK4 pair's (``rk4_long_record``'s, to the bit),
+    its ``expo`` statistics kept as ``screen`` and its ``free_copy`` named; a non-positive one
+    (the one-mode slipping orbit) is left as it was.  With the default ``contradicted`` the
+    chaotic point's record, whose Poincare samples say chaos on their own, is left too."""
     for point, replaced in ((CHAOTIC_2MODES, True), (SLIPPING, False)):
         prepared, starts, scales = _settled([point], n_transient=60)
-        res = beam_lle(prepared, starts, scales, n_periods=5, plan=SHORT, n_threads=2,
-                       free_method="expo", free_e0=1e-4, ladder_method="expo")
-        expo = res[0].statistics
-        assert expo.verdict == (POSITIVE if replaced else NON_POSITIVE), expo
-        lopt = Numerics().lyapunov
-        _second_opinion(res, prepared, starts, scales, SHORT, lopt, None, 2)
-        if not replaced:
-            assert res[0].statistics is expo and res[0].screen is None and res[0].free_copy == "expo"
-            continue
-        rk4 = rk4_long_record(prepared, starts, scales, plan=SHORT, step_factor=lopt.step_factor)[0]
-        assert res[0].free_copy == RK4_SECOND_OPINION and res[0].screen is expo
-        assert np.array_equal(res[0].statistics.blocks, rk4.blocks)
+        records = [simulate_batch([point], n_transient=60, n_record=128, method="expo")[0].poincare_state]
+        for confirm in ("contradicted", "all"):
+            res = beam_lle(prepared, starts, scales, n_periods=5, plan=SHORT, n_threads=2,
+                           free_method="expo", free_e0=1e-4, ladder_method="expo")
+            expo = res[0].statistics
+            assert expo.verdict == (POSITIVE if replaced else NON_POSITIVE), expo
+            lopt = Numerics.from_dict({"lyapunov": {"confirm": confirm}}).lyapunov
+            _second_opinion(res, prepared, starts, scales, records, SHORT, lopt, None, 2)
+            if not replaced or confirm == "contradicted":
+                assert poincare_says_chaotic(records[0]) == replaced
+                assert res[0].statistics is expo and res[0].screen is None and res[0].free_copy == "expo"
+                continue
+            rk4 = rk4_long_record(prepared, starts, scales, plan=SHORT, step_factor=lopt.step_factor)[0]
+            assert res[0].free_copy == RK4_SECOND_OPINION and res[0].screen is expo
+            assert np.array_equal(res[0].statistics.blocks, rk4.blocks)
 
 
 @pytest.fixture(scope="module")
@@ -107,9 +111,16 @@ def test_the_rk4_pair_reads_a_grazing_period_one_orbit_as_non_chaotic(grazing):
     assert res.label == "periodic" and res.period == 1 and res.indicators["period_test"] == 1, res.reason
     plan = Numerics().lyapunov.block_plan()
     T = 2 * math.pi / pp.omega
-    expo = beam_lle([pp], r.final_state[None], scale[None], n_periods=25, plan=plan, n_threads=2,
-                    free_method="expo", free_e0=1e-4, ladder_method="expo")[0].statistics
+    res = beam_lle([pp], r.final_state[None], scale[None], n_periods=25, plan=plan, n_threads=2,
+                   free_method="expo", free_e0=1e-4, ladder_method="expo")
+    expo = res[0].statistics
     print(f"\nexpo pair: {expo.summary()}")
+    # the pipeline's default rule: a period-1 record does not say chaos, so where the expo pair
+    # is not non-positive the RK4 pair decides; either way the verdict is non-positive
+    lopt = Numerics().lyapunov
+    _second_opinion(res, [pp], r.final_state[None], scale[None], [r.poincare_state], plan, lopt, None, 2)
+    assert (res[0].free_copy == RK4_SECOND_OPINION) == (expo.verdict != NON_POSITIVE)
+    assert res[0].statistics.verdict == NON_POSITIVE, res[0].statistics.summary()
     for sf in (0.5, 0.25):
         st = rk4_long_record([pp], r.final_state[None], scale[None], plan=plan, step_factor=sf,
                              n_threads=2)[0]
