@@ -23,7 +23,7 @@ default rule's test), the cross-table of verdicts, and the RK4 pair's cost per p
     .venv/bin/python benchmarks/second_opinion.py                 # results/regimes/default
     .venv/bin/python benchmarks/second_opinion.py --step-factors 0.5 --all-measured
 
-About 7 minutes for the default map (52 cells at 0.5 and 0.25, one thread per record; 2026-11-28).
+About 14 minutes for the default map on one core (50 cells at 0.5 and 0.25; 2026-11-28).
 Needs ``snakemake -c2 regimes`` first; reads ``config/config.yaml``'s numerics.  Results:
 docs/lyapunov.md, section 15.
 """
