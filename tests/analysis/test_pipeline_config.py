@@ -85,6 +85,22 @@ def test_the_free_copys_integrator_and_separation_enter_the_id():
         == point_id(params, rk4)
 
 
+def test_the_second_opinion_enters_the_id_where_the_free_copy_can_be_expos():
+    """``lyapunov.confirm`` changes the label's exponent of ``expo`` pairs only, so it is part of
+    a point's id except for the RK4 pair; a value outside its choices is refused by name."""
+    params = {"n_modes": 1, "Omega": 2.0}
+    assert Numerics().lyapunov.confirm == "contradicted"
+    for other in ("all", "none"):
+        assert point_id(params, Numerics.from_dict({"lyapunov": {"confirm": other}})) \
+            != point_id(params, Numerics())
+    rk4 = Numerics.from_dict({"lyapunov": {"method": "rk4"}})
+    assert point_id(params, Numerics.from_dict({"lyapunov": {"method": "rk4", "confirm": "all"}})) \
+        == point_id(params, rk4)
+    msg = r"numerics\.lyapunov\.confirm = 'rk4'; allowed: contradicted, all, none"
+    with pytest.raises(ValueError, match=msg):
+        Numerics.from_dict({"lyapunov": {"confirm": "rk4"}})
+
+
 @pytest.mark.parametrize("bad, key", [({"step_size": 1.0}, "step_size"),
                                       ({"lyapunov": {"periods": 3}}, "periods"),
                                       ({"method": "euler"}, "euler")])
