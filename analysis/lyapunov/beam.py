@@ -383,8 +383,8 @@ def rk4_long_record(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, 
 
     The pipeline's second opinion on an ``expo`` pair's record whose interval is not at or below
     the margin (``numerics.lyapunov.confirm``, :func:`analysis.pipeline.stages.lyapunov_runs`):
-    at grazing period-1 orbits the ``expo`` pair reads chaos the RK4 pair does not, at two RK4
-    steps (docs/lyapunov.md, section 15).  Arguments as :func:`beam_lle`'s.
+    at period-1 orbits near the slip onset the ``expo`` pair reads chaos the RK4 pair does not,
+    at two RK4 steps (docs/lyapunov.md, section 15).  Arguments as :func:`beam_lle`'s.
     """
     from beamsim.coupled_copies import run_copies
 

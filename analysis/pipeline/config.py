@@ -63,8 +63,9 @@ class LyapunovNumerics:
         the Poincare record does not say chaos on its own
         (:func:`analysis.regimes.poincare_says_chaotic`); ``all`` does so at every such record
         (on the default map about 4 minutes more); ``none`` keeps the ``expo`` pair's (at
-        grazing period-1 orbits it reads chaos the RK4 pair does not: docs/lyapunov.md,
-        section 15).  Not part of a point's id where the free copy is RK4's.
+        period-1 orbits near the slip onset, which the period test labels, its long record
+        reads chaos the RK4 pair does not: docs/lyapunov.md, section 15).  Not part of a
+        point's id when ``method`` is ``rk4`` (as ``expo_e0``).
     nolds_emb_dim : embedding dimension of the Rosenstein (nolds) estimate.
     block_periods, burn_in, min_blocks, max_blocks, confidence, margin : the long Benettin
         record whose block statistics decide the label
@@ -162,8 +163,9 @@ class Numerics:
 
     def result_dict(self) -> dict:
         """The settings that change results, resolved, as they enter point ids and the rules'
-        parameters (``steps_per_period`` only when set; ``lyapunov.expo_e0`` only when the free
-        copy can be ``expo``'s)."""
+        parameters (``steps_per_period`` only when set; ``lyapunov.expo_e0`` and
+        ``lyapunov.confirm`` only when ``lyapunov.method`` is not ``rk4``, i.e. the free copy can
+        be ``expo``'s)."""
         out = asdict(self)
         del out["chunk_size"]
         if out["steps_per_period"] is None:

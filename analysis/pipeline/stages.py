@@ -428,18 +428,20 @@ def _second_opinion(res: list, prepared: list, starts: np.ndarray, scales: np.nd
                     records: list, plan, lopt, rk4_steps: int | None, threads: int) -> None:
     """Re-measure on the RK4 pair (:func:`analysis.lyapunov.beam.rk4_long_record`), in place,
     the long records of ``res`` that the ``expo`` pair read with an interval not at or below the
-    margin (positive or straddling) -- with ``lopt.confirm == "contradicted"`` only those whose
-    Poincare record (``records``) does not say chaos on its own
+    margin (positive, straddling, or a diverged copy) -- with ``lopt.confirm == "contradicted"``
+    only those whose Poincare record (``records``) does not say chaos on its own
     (:func:`analysis.regimes.poincare_says_chaotic`), with ``"all"`` every one: their statistics
     become the RK4 pair's, the ``expo`` pair's are kept as ``est.screen`` and ``est.free_copy``
     is :data:`analysis.lyapunov.beam.RK4_SECOND_OPINION`.
 
-    Why (docs/lyapunov.md, section 15): at grazing period-1 orbits the ``expo`` pair reads
-    ``lambda_1 T`` up to +0.87 with an interval above the margin where the RK4 pair reads
-    non-positive at two steps; where the ``expo`` pair reads non-positive the RK4 pair did too
-    at every cell measured, and where the Poincare record says chaos too the two pairs' verdicts
-    differ only through intervals that straddle the margin.  So the cheap pair screens, and the
-    RK4 pair decides where the screen and the record disagree."""
+    Why (docs/lyapunov.md, section 15): at period-1 orbits near the slip onset (labelled by the
+    period test, so not measured here) the ``expo`` pair's long record reads ``lambda_1 T`` up
+    to +0.87 with an interval above the margin where the RK4 pair reads non-positive at two
+    steps, and the same pair decides the labels of the records measured here.  Where the
+    ``expo`` pair reads non-positive the RK4 pair did too at every cell measured, and where the
+    Poincare record says chaos too the two pairs' verdicts differ only through intervals that
+    straddle the margin.  So the cheap pair screens, and the RK4 pair decides where the screen
+    and the record disagree."""
     from analysis.lyapunov.beam import RK4_SECOND_OPINION, rk4_long_record
     from analysis.lyapunov.block_statistics import NON_POSITIVE
     from analysis.regimes import poincare_says_chaotic

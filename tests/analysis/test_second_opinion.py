@@ -89,6 +89,32 @@ def test_only_records_not_at_or_below_the_margin_are_measured_again():
             assert np.array_equal(res[0].statistics.blocks, rk4.blocks)
 
 
+def test_the_default_rule_measures_again_where_the_record_does_not_say_chaos():
+    """``_second_opinion`` with the default ``contradicted``, on the one-mode slipping orbit
+    (a period-1 record, not chaos-like) whose ``expo`` statistics are set to a positive and to a
+    straddling verdict: both are measured again on the RK4 pair (its record, to the bit), the
+    ``expo`` statistics kept as ``screen``.  The selection is what is tested; the beam's own
+    ``expo`` readings at such orbits are the grazing test's."""
+    import dataclasses
+
+    from analysis.lyapunov.block_statistics import UNDETERMINED
+
+    prepared, starts, scales = _settled([SLIPPING], n_transient=60)
+    records = [simulate_batch([SLIPPING], n_transient=60, n_record=128, method="expo")[0].poincare_state]
+    assert not poincare_says_chaotic(records[0])
+    lopt = Numerics().lyapunov
+    rk4 = rk4_long_record(prepared, starts, scales, plan=SHORT, step_factor=lopt.step_factor)[0]
+    for verdict in (POSITIVE, UNDETERMINED):
+        res = beam_lle(prepared, starts, scales, n_periods=5, plan=SHORT, n_threads=2,
+                       free_method="expo", free_e0=1e-4, ladder_method="expo")
+        res[0].statistics = dataclasses.replace(res[0].statistics, verdict=verdict)
+        faked = res[0].statistics
+        _second_opinion(res, prepared, starts, scales, records, SHORT, lopt, None, 2)
+        assert res[0].free_copy == RK4_SECOND_OPINION and res[0].screen is faked
+        assert np.array_equal(res[0].statistics.blocks, rk4.blocks)
+        assert res[0].statistics.verdict == rk4.verdict
+
+
 @pytest.fixture(scope="module")
 def grazing():
     """The grazing cell from rest, through its table's transient, and 256 recorded periods."""
