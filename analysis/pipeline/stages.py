@@ -374,8 +374,7 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
             recs[i] = {"lle_stefanski": np.nan, "lle_stefanski_verdict": "not computed: diverged",
                        "lle_stefanski_lo": np.nan, "lle_stefanski_hi": np.nan,
                        "lle_benettin": np.nan, "lle_nolds": np.nan, "lle_free_copy": "not run",
-                       "stuck_bound": np.nan, "lle_expo_mean": np.nan, "lle_expo_lo": np.nan,
-                       "lle_expo_hi": np.nan, **_no_statistics("diverged")}
+                       "stuck_bound": np.nan, **_screen_columns(None), **_no_statistics("diverged")}
         else:
             good.append(i)
     if good:
@@ -547,9 +546,7 @@ def _lyapunov_record(r: pd.Series, est, exemption: str | None, lopt, pid: str,
            "lle_stefanski_lo": st.bracket[0], "lle_stefanski_hi": st.bracket[1],
            "lle_benettin": est.benettin.value, "lle_nolds": lle_nolds, "lle_free_copy": est.free_copy,
            "stuck_bound": bound}
-    sc = est.screen
-    out |= {"lle_expo_mean": np.nan if sc is None else sc.mean,
-            "lle_expo_lo": np.nan if sc is None else sc.lo, "lle_expo_hi": np.nan if sc is None else sc.hi}
+    out |= _screen_columns(est.screen)
     bs = est.statistics
     if bs is not None:
         return out | {"lle_mean": bs.mean, "lle_se": bs.se, "lle_lo": bs.lo, "lle_hi": bs.hi,
@@ -562,6 +559,12 @@ def _lyapunov_record(r: pd.Series, est, exemption: str | None, lopt, pid: str,
         # the slowly decaying free vibration's finite-time growth, up to +-0.1 per period)
         stats |= {"lle_mean": linear_lle, "lle_lo": linear_lle, "lle_hi": linear_lle}
     return out | stats
+
+
+def _screen_columns(screen) -> dict:
+    """``lle_expo_mean``, ``lle_expo_lo``, ``lle_expo_hi``: the ``expo`` pair's statistics where
+    the RK4 pair re-measured the record (:func:`_second_opinion`), NaN otherwise."""
+    return {f"lle_expo_{k}": np.nan if screen is None else getattr(screen, k) for k in ("mean", "lo", "hi")}
 
 
 def _no_statistics(verdict: str) -> dict:

@@ -97,6 +97,8 @@ def test_outputs_table_schema_and_metadata(first_run):
     assert set(table["label"]) <= {"periodic", "quasi-periodic", "chaotic", "diverged", "unsettled"}
     # the tiny grid's mu_s > mu_k points: expo reference runs and expo free copies, no Zeno guard
     assert list(table["method"]) == ["expo", "expo"] and list(table["lle_free_copy"]) == ["expo", "expo"]
+    # the expo pair's own statistics are the label's here, so no second-opinion columns
+    assert table[["lle_expo_mean", "lle_expo_lo", "lle_expo_hi"]].isna().all().all()
     assert table["point_id"].is_unique
     meta = read_regime_metadata(out / "tiny.parquet")
     assert len(meta["config_hash"]) == 16 and meta["grid_name"] == "tiny"
