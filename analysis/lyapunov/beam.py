@@ -50,13 +50,17 @@ from analysis.lyapunov.sync_search import sync_search
 from beamsim.results import ZENO_FALLBACK
 
 __all__ = ["BeamLLE", "attractor_scale", "beam_benettin", "beam_lle", "initial_offset",
-           "response_scale", "rk4_long_record", "RK4_SECOND_OPINION"]
+           "response_scale", "rk4_long_record", "EXPO_FLOOR_FALLBACK", "RK4_SECOND_OPINION"]
 
 
 #: :attr:`BeamLLE.free_copy` of a point whose long record the RK4 pair measured again because
 #: the ``expo`` pair's interval was not at or below the margin
 #: (:func:`analysis.pipeline.stages.lyapunov_runs`, ``numerics.lyapunov.confirm``)
 RK4_SECOND_OPINION = "rk4 (the expo pair's interval was not at or below the margin)"
+#: :attr:`BeamLLE.free_copy` of a point that ``beam_lle`` ran on the RK4 pair because ``expo``'s
+#: noise floor there (:func:`analysis.lyapunov.noise_floor.expo_noise_floor`) exceeds
+#: ``floor_ratio`` times the ``expo`` copy's separation
+EXPO_FLOOR_FALLBACK = "rk4 (expo's noise floor reaches its separation)"
 
 
 @dataclass
@@ -72,13 +76,17 @@ class BeamLLE:
     period: float
     statistics: LLEStatistics | None = None
     #: integrator of the free copy: ``"expo"``, ``"rk4"``, :data:`ZENO_FALLBACK` (``expo``
-    #: asked for, the point run on RK4 because an ``expo`` trajectory met the Zeno guard) or
-    #: :data:`RK4_SECOND_OPINION` (``statistics`` from the RK4 pair, ``screen`` the ``expo``
-    #: pair's)
+    #: asked for, the point run on RK4 because an ``expo`` trajectory met the Zeno guard),
+    #: :data:`EXPO_FLOOR_FALLBACK` (``expo`` asked for, the point run on RK4 because ``expo``'s
+    #: noise floor reaches its separation) or :data:`RK4_SECOND_OPINION` (``statistics`` from
+    #: the RK4 pair, ``screen`` the ``expo`` pair's)
     free_copy: str = "rk4"
     #: the ``expo`` pair's block statistics where the RK4 pair re-measured the long record
     #: (:func:`rk4_long_record`), else ``None``
     screen: LLEStatistics | None = None
+    #: ``expo``'s noise floor at the point (:func:`analysis.lyapunov.noise_floor.expo_noise_floor`,
+    #: scaled like the separation), where ``beam_lle`` measured it, else ``nan``
+    expo_floor: float = float("nan")
 
 
 def attractor_scale(poincare_state: np.ndarray, q_ref: np.ndarray, omega: float) -> np.ndarray:
@@ -168,7 +176,7 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
              n_threads: int | None = None, plan: BlockPlan | None = None,
              free_method: str = "rk4", free_e0: float | None = None,
              free_steps: int | None = None, ladder_method: str = "rk4",
-             pattern_store=None) -> list[BeamLLE]:
+             floor_ratio: float | None = None, pattern_store=None) -> list[BeamLLE]:
     """Stefanski and Benettin estimates of ``lambda_1`` for each point, and with ``plan`` the
     block statistics of a long Benettin record.
 
@@ -216,6 +224,12 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
         at a step end, which leaves that trajectory behind in time) is run again as with
         ``free_method="rk4"`` (``free_e0 = e0``); its :attr:`BeamLLE.free_copy` says so
         (:data:`ZENO_FALLBACK`).
+    floor_ratio : with ``free_method="expo"``, first measure ``expo``'s noise floor ``N`` at
+        every point (:func:`analysis.lyapunov.noise_floor.expo_noise_floor`: the separation
+        that rounding alone opens in one period) and run the points where ``N > floor_ratio *
+        free_e0`` as with ``free_method="rk4"`` from the start (:data:`EXPO_FLOOR_FALLBACK`):
+        there the ``expo`` copy would measure the noise (docs/lyapunov.md, section 16).
+        ``None``: no floor is measured.  :attr:`BeamLLE.expo_floor` carries ``N``.
     pattern_store : the ``expo`` copies' stick-pattern decompositions
         (:class:`beamsim.pattern_store.PatternStore`; default: one for this call), a cost, not
         a result: hand one store to the calls of one model's points.
@@ -229,17 +243,35 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
     if ladder_method not in ("rk4", "expo") or (ladder_method == "expo" and free_method != "expo"):
         raise ValueError(f"beam_lle: ladder_method must be 'rk4', or 'expo' with free_method='expo'; "
                          f"got {ladder_method!r} with {free_method!r}")
-    out, guarded = _estimates(prepared, x_start, scales, free_method=free_method, free_e0=free_e0,
-                              free_steps=free_steps, ladder_method=ladder_method,
-                              pattern_store=pattern_store, **kw)
-    if guarded.any():  # only expo has the guard: these points as with free_method="rk4"
-        idx = np.flatnonzero(guarded)
+    P = len(prepared)
+    floors = np.full(P, np.nan)
+    noisy = np.zeros(P, np.bool_)
+    if free_method == "expo" and floor_ratio is not None:
+        from analysis.lyapunov.noise_floor import expo_noise_floor
+
+        floors = expo_noise_floor(prepared, x_start, scales, n_threads=n_threads,
+                                  pattern_store=pattern_store)
+        noisy = floors > float(floor_ratio) * (e0 if free_e0 is None else float(free_e0))
+    out: list = [None] * P
+    guarded = np.zeros(P, np.bool_)
+    keep = np.flatnonzero(~noisy)
+    if keep.size:
+        est, met = _estimates([prepared[i] for i in keep], x_start[keep], scales[keep],
+                              free_method=free_method, free_e0=free_e0, free_steps=free_steps,
+                              ladder_method=ladder_method, pattern_store=pattern_store, **kw)
+        for i, e in zip(keep, est):
+            out[i] = e
+        guarded[keep] = met
+    if (guarded | noisy).any():  # only expo has the guards: these points as with free_method="rk4"
+        idx = np.flatnonzero(guarded | noisy)
         rerun, _ = _estimates([prepared[i] for i in idx], x_start[idx], scales[idx], free_method="rk4",
                               free_e0=None, free_steps=None, ladder_method="rk4", **kw,
                               pattern_store=None)
         for i, est in zip(idx, rerun):
-            est.free_copy = ZENO_FALLBACK
+            est.free_copy = EXPO_FLOOR_FALLBACK if noisy[i] else ZENO_FALLBACK
             out[i] = est
+    for i in range(P):
+        out[i].expo_floor = float(floors[i])
     return out
 
 

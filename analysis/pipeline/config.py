@@ -66,6 +66,13 @@ class LyapunovNumerics:
         period-1 orbits near the slip onset, which the period test labels, its long record
         reads chaos the RK4 pair does not: docs/lyapunov.md, section 15).  Not part of a
         point's id when ``method`` is ``rk4`` (as ``expo_e0``).
+    expo_floor : where the free copy is ``expo``'s, ``expo``'s noise floor ``N`` is measured
+        first at every point (:func:`analysis.lyapunov.noise_floor.expo_noise_floor`: the scaled
+        separation that rounding alone opens in one forcing period) and a point with ``N >
+        expo_floor * expo_e0`` runs on the RK4 pair throughout (window, Stefanski, long record),
+        because there the ``expo`` copy would measure the noise (docs/lyapunov.md, section 16);
+        ``null`` measures no floor (the behaviour before 2026-11-28's second session).  Not part
+        of a point's id when ``method`` is ``rk4`` (as ``expo_e0``).
     nolds_emb_dim : embedding dimension of the Rosenstein (nolds) estimate.
     block_periods, burn_in, min_blocks, max_blocks, confidence, margin : the long Benettin
         record whose block statistics decide the label
@@ -81,6 +88,7 @@ class LyapunovNumerics:
     expo_e0: float = 1e-4
     ladder: str = "expo"
     confirm: str = "contradicted"
+    expo_floor: float | None = 0.1
     nolds_emb_dim: int = 6
     # the long record's defaults are BlockPlan's (one place)
     block_periods: int = BlockPlan.block
@@ -151,6 +159,11 @@ class Numerics:
         if lyap.get("confirm", LyapunovNumerics.confirm) not in CONFIRM_METHODS:
             raise ValueError(f"numerics.lyapunov.confirm = {lyap['confirm']!r}; allowed: "
                              f"{', '.join(CONFIRM_METHODS)}")
+        floor = lyap.get("expo_floor", LyapunovNumerics.expo_floor)
+        if floor is not None and (isinstance(floor, bool) or not isinstance(floor, (int, float))
+                                  or not 0.0 < floor <= 1.0):
+            raise ValueError(f"numerics.lyapunov.expo_floor = {floor!r}; allowed: a number in "
+                             f"(0, 1], or null (no noise floor measured)")
         out = cls(**kw, lyapunov=LyapunovNumerics(**lyap))
         if out.n_transient_max < out.n_transient:
             raise ValueError(f"numerics.n_transient_max = {out.n_transient_max} must be >= "
@@ -163,9 +176,9 @@ class Numerics:
 
     def result_dict(self) -> dict:
         """The settings that change results, resolved, as they enter point ids and the rules'
-        parameters (``steps_per_period`` only when set; ``lyapunov.expo_e0`` and
-        ``lyapunov.confirm`` only when ``lyapunov.method`` is not ``rk4``, i.e. the free copy can
-        be ``expo``'s)."""
+        parameters (``steps_per_period`` only when set; ``lyapunov.expo_e0``,
+        ``lyapunov.confirm`` and ``lyapunov.expo_floor`` only when ``lyapunov.method`` is not
+        ``rk4``, i.e. the free copy can be ``expo``'s)."""
         out = asdict(self)
         del out["chunk_size"]
         if out["steps_per_period"] is None:
@@ -175,6 +188,7 @@ class Numerics:
             # not enter its results, so it does not enter its ids
             del out["lyapunov"]["expo_e0"]
             del out["lyapunov"]["confirm"]
+            del out["lyapunov"]["expo_floor"]
         if out["lyapunov"]["ladder"] == "expo":
             # the default ladder (results version 13): ids of points that keep it as before
             del out["lyapunov"]["ladder"]

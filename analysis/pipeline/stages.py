@@ -374,7 +374,8 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
             recs[i] = {"lle_stefanski": np.nan, "lle_stefanski_verdict": "not computed: diverged",
                        "lle_stefanski_lo": np.nan, "lle_stefanski_hi": np.nan,
                        "lle_benettin": np.nan, "lle_nolds": np.nan, "lle_free_copy": "not run",
-                       "stuck_bound": np.nan, **_screen_columns(None), **_no_statistics("diverged")}
+                       "stuck_bound": np.nan, "lle_expo_floor": np.nan, **_screen_columns(None),
+                       **_no_statistics("diverged")}
         else:
             good.append(i)
     if good:
@@ -407,6 +408,7 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
                            free_method=method, free_steps=spp or None,
                            free_e0=lopt.expo_e0 if method == "expo" else None,
                            ladder_method="expo" if lopt.ladder == "expo" and method == "expo" else "rk4",
+                           floor_ratio=lopt.expo_floor if method == "expo" else None,
                            pattern_store=pattern_store)
             if method == "expo" and long_record and lopt.confirm != "none":
                 _second_opinion(res, pps, starts, scales, records, plan, lopt, rk4_steps, threads)
@@ -545,7 +547,7 @@ def _lyapunov_record(r: pd.Series, est, exemption: str | None, lopt, pid: str,
     out = {"lle_stefanski": st.value, "lle_stefanski_verdict": st.verdict,
            "lle_stefanski_lo": st.bracket[0], "lle_stefanski_hi": st.bracket[1],
            "lle_benettin": est.benettin.value, "lle_nolds": lle_nolds, "lle_free_copy": est.free_copy,
-           "stuck_bound": bound}
+           "stuck_bound": bound, "lle_expo_floor": est.expo_floor}
     out |= _screen_columns(est.screen)
     bs = est.statistics
     if bs is not None:

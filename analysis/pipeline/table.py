@@ -24,7 +24,7 @@ TABLE_COLUMNS = (
     "slipped",
     "t_first_slip", "stick_fraction", "diss_per_cycle", "f0", "f_cr", "omega", "Omega", "lam_f",
     "diverged", "settled", "energy_residual_rel", "lle_stefanski_verdict", "method", "lle_free_copy",
-    "stuck_bound", "lle_expo_mean", "lle_expo_lo", "lle_expo_hi", "reason",
+    "stuck_bound", "lle_expo_mean", "lle_expo_lo", "lle_expo_hi", "lle_expo_floor", "reason",
 )
 
 

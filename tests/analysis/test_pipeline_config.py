@@ -101,6 +101,23 @@ def test_the_second_opinion_enters_the_id_where_the_free_copy_can_be_expos():
         Numerics.from_dict({"lyapunov": {"confirm": "rk4"}})
 
 
+def test_the_noise_floor_guard_enters_the_id_where_the_free_copy_can_be_expos():
+    """``lyapunov.expo_floor`` decides which points run on the RK4 pair, so it is part of a
+    point's id except for the RK4 pair; ``null`` switches it off; a value outside ``(0, 1]`` is
+    refused by name with the allowed range, before anything runs."""
+    params = {"n_modes": 1, "Omega": 2.0}
+    assert Numerics().lyapunov.expo_floor == 0.1
+    for other in (0.3, None):
+        assert point_id(params, Numerics.from_dict({"lyapunov": {"expo_floor": other}})) \
+            != point_id(params, Numerics())
+    rk4 = Numerics.from_dict({"lyapunov": {"method": "rk4"}})
+    assert point_id(params, Numerics.from_dict({"lyapunov": {"method": "rk4", "expo_floor": 0.5}})) \
+        == point_id(params, rk4)
+    for bad in (0, -0.1, 1.5, "high", True):
+        with pytest.raises(ValueError, match=r"numerics\.lyapunov\.expo_floor = .*allowed: a number in \(0, 1\]"):
+            Numerics.from_dict({"lyapunov": {"expo_floor": bad}})
+
+
 @pytest.mark.parametrize("bad, key", [({"step_size": 1.0}, "step_size"),
                                       ({"lyapunov": {"periods": 3}}, "periods"),
                                       ({"method": "euler"}, "euler")])

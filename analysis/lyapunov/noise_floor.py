@@ -1,0 +1,75 @@
+r"""``expo``'s noise floor at a beam point: the separation that rounding alone opens in one period.
+
+The ``expo`` pair (:mod:`beamsim.kernels.expo_copies`) measures ``lambda_1`` from a copy kept at
+the scaled separation ``e0`` from its drive (:mod:`analysis.lyapunov.beam`).  Its state is a
+sum over the modes of the current stick pattern, whose eigenvector basis is far from
+orthogonal (condition numbers about ``1e4`` for the default beam), so every switch and every
+step end leaves a rounding error of about ``1e-13`` of the state, where an RK4 step leaves
+``1e-16``.  Near the slip onset the tractions of stuck elements reach the static limit slowly
+(a grazing approach), a stick -> slip switch moves by the error of the traction divided by that
+slow rate, and the drop of the traction from ``mu_s p`` to ``mu_k p`` turns the moved switch
+into a state error: over one forcing period the rounding error grows to ``1e-4`` of the
+attractor at the worst cells of the default map (docs/lyapunov.md, section 16).  A copy whose
+separation is of that size measures the noise: its record grows by ``ln(N / e0)`` per period
+whatever the dynamics.
+
+:func:`expo_noise_floor` measures ``N`` directly: from the same state, the drive is run over
+one forcing period on two output grids (:data:`FLOOR_GRIDS` steps per period: the same
+trajectory, split at different times, so the two runs differ by rounding only), and the scaled
+RMS of the two end states' difference (the pair's own metric) is the floor of that period; the
+largest over ``n_periods`` periods (each restarted from the first grid's end state) is the
+point's.  Where it exceeds a fraction of ``e0`` the pipeline runs the point on the RK4 pair
+(:func:`analysis.lyapunov.beam.beam_lle`, ``floor_ratio``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["FLOOR_GRIDS", "FLOOR_PERIODS", "expo_noise_floor"]
+
+#: the two output grids (steps per forcing period) whose runs are compared: the ``expo``
+#: copies' grid (:data:`beamsim.coupled_copies.EXPO_COPY_STEPS_PER_PERIOD`) and one that shares
+#: none of its inner step ends
+FLOOR_GRIDS = (16, 23)
+#: forcing periods measured (each from the state the first grid's run ended in)
+FLOOR_PERIODS = 3
+
+
+def _restart(point: dict, x: np.ndarray, n: int, nq: int) -> dict:
+    """``point`` started from the full state ``x = (q, v, z, mode)``."""
+    return dict(point, q0=x[:n], v0=x[n:2 * n], z0=x[2 * n:2 * n + nq], mode0=x[2 * n + nq:])
+
+
+def expo_noise_floor(prepared: list, x_start: np.ndarray, scales: np.ndarray, *,
+                     n_periods: int = FLOOR_PERIODS, grids: tuple[int, int] = FLOOR_GRIDS,
+                     n_threads: int | None = None, pattern_store=None) -> np.ndarray:
+    """The largest one-period rounding separation of ``expo``'s drive at each point, ``(P,)``.
+
+    prepared : points from :func:`beamsim.simulate.prepare_point` (their ``params`` are run).
+    x_start : ``(P, 2 n + 2 n_quad)`` restart states (``SimResult.final_state``; each run
+        restarts the forcing phase at ``t = 0``).
+    scales : ``(P, 2 n)`` attractor sizes (:func:`analysis.lyapunov.beam.attractor_scale`): the
+        separation is the RMS over ``(q, v)`` of the difference divided by them, as the pairs'.
+    grids : two ``expo`` output grids, steps per forcing period.
+    pattern_store : stick-pattern decompositions shared with other ``expo`` calls (a cost).
+
+    A point whose run diverges or ends non-finite gets ``inf``.  Deterministic: the runs are
+    the simulator's, whose results do not depend on threads or batch."""
+    from beamsim.simulate import simulate_batch
+
+    P = len(prepared)
+    x = np.array(x_start, dtype=float, copy=True)
+    scales = np.asarray(scales, dtype=float)
+    floor = np.zeros(P)
+    for _ in range(int(n_periods)):
+        pts = [_restart(pp.params, x[i], pp.model.n, pp.model.n_quad) for i, pp in enumerate(prepared)]
+        runs = [simulate_batch(pts, n_transient=0, n_record=1, method="expo", steps_per_period=g,
+                               n_threads=n_threads, pattern_store=pattern_store) for g in grids]
+        for i, (a, b) in enumerate(zip(*runs)):
+            d = (a.poincare_state[-1] - b.poincare_state[-1]) / scales[i]
+            sep = float(np.sqrt(np.mean(d * d)))
+            floor[i] = max(floor[i], sep if np.isfinite(sep) and not (a.diverged or b.diverged) else np.inf)
+            if np.all(np.isfinite(a.final_state)):
+                x[i] = a.final_state
+    return floor

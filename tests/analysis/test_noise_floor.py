@@ -1,0 +1,110 @@
+"""``expo``'s noise floor and the guard that sends a point above it to the RK4 pair
+(analysis.lyapunov.noise_floor, ``beam_lle(floor_ratio=...)``, ``numerics.lyapunov.expo_floor``;
+docs/lyapunov.md, section 16).
+
+Independent checks: a record that measures noise grows by ``ln(N / e0)`` per period, so
+dividing the separation by ten adds ``ln 10`` to its growth, where a dynamical exponent does not
+depend on the separation; that is what the ``expo`` pair does at the grazing period-1 orbit of
+the default map, whose floor is above the separation, and what the RK4 pair does not do there.
+At quiet points (a slipping one-mode orbit, a stuck torus, the two-mode chaotic point) the floor
+is four decades below the guard; a guarded point's estimates are the RK4 pair's to the bit."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from beam_copies import CHAOTIC_2MODES
+
+from analysis.lyapunov.beam import (
+    EXPO_FLOOR_FALLBACK,
+    attractor_scale,
+    beam_lle,
+    initial_offset,
+    response_scale,
+)
+from analysis.lyapunov.block_statistics import NON_POSITIVE, BlockPlan
+from analysis.lyapunov.noise_floor import expo_noise_floor
+from analysis.pipeline.config import as_numerics
+from analysis.pipeline.stages import reference_run
+from beamsim.coupled_copies import run_copies
+from beamsim.simulate import prepare_point, simulate_batch
+
+ONE_MODE = dict(n_modes=1, mu_k=0.3, interface_damping=0.5)
+SLIPPING = dict(ONE_MODE, Omega=2.5, f0_rel=2.5, mu_s=0.6)   # period-1 orbit with slip
+STUCK = dict(ONE_MODE, Omega=2.5, f0_rel=0.5, mu_s=0.45)     # below onset: undamped, torus
+# the default map's period-1 cell just above the static slip onset (three modes) and the
+# transient its table used (as tests/analysis/test_second_opinion.py)
+GRAZING = dict(n_modes=3, mu_s=0.45, mu_k=0.3, interface_viscosity=0.0939, Omega=1.25,
+               f0_rel=1.05666829058)
+GRAZING_TRANSIENT = 1424
+E0 = 1e-4       # the pipeline's expo separation (numerics.lyapunov.expo_e0)
+RATIO = 0.1     # the pipeline's guard (numerics.lyapunov.expo_floor)
+SHORT = BlockPlan(block=5, burn_in=5, min_blocks=2, max_blocks=4, margin=0.05)
+
+
+@pytest.fixture(scope="module")
+def grazing():
+    """The grazing cell from rest through its table's transient (256 recorded periods)."""
+    r = reference_run(GRAZING, as_numerics({}), n_transient=GRAZING_TRANSIENT, n_record=256)
+    pp = prepare_point(**GRAZING)
+    return pp, r.final_state, attractor_scale(r.poincare_state, response_scale(pp), pp.omega)
+
+
+def _settled(point, n_transient):
+    r = simulate_batch([point], n_transient=n_transient, n_record=30, method="expo")[0]
+    pp = prepare_point(**point)
+    return pp, r.final_state, attractor_scale(r.poincare_state, response_scale(pp), pp.omega)
+
+
+def _growth(pp, start, scale, e0, method, n_periods=40, skip=10):
+    """Mean ``ln eps`` growth per period of four free copies (seeds 0-3) renormalised every
+    period, after ``skip`` periods."""
+    offs = np.stack([initial_offset(pp, scale, e0, seed) for seed in range(4)])[None]
+    le = run_copies([pp], start[None], offs, np.zeros((1, 4)), 1.0 / scale[None], n_periods=n_periods,
+                    e0=e0, renorm_period=np.ones((1, 4), np.bool_), method=method, n_threads=2)
+    return float(np.diff(le[0], axis=1)[:, skip:].mean())
+
+
+def test_the_expo_pair_measures_noise_where_its_floor_reaches_the_separation(grazing):
+    """At the grazing orbit the floor exceeds the guard (``0.1 e0``) and the ``expo`` pair's
+    growth is the noise's: it rises by about ``ln 10`` when the separation drops tenfold, and it
+    is positive at the pipeline's ``e0``; the RK4 pair's does not move with its separation and
+    stays at or below the margin.  At quiet points the floor is below ``1e-3 e0``."""
+    pp, start, scale = grazing
+    floor = expo_noise_floor([pp], start[None], scale[None], n_threads=2)[0]
+    expo = {e0: _growth(pp, start, scale, e0, "expo") for e0 in (E0, E0 / 10)}
+    rk4 = {e0: _growth(pp, start, scale, e0, "rk4") for e0 in (1e-5, 1e-6)}
+    print(f"\nfloor {floor:.2e}; expo growth per period {expo}; RK4 {rk4}")
+    assert floor > RATIO * E0
+    assert expo[E0] > 0.3
+    assert 0.6 * math.log(10) < expo[E0 / 10] - expo[E0] < 1.4 * math.log(10)
+    assert abs(rk4[1e-5] - rk4[1e-6]) < 0.1 and max(rk4.values()) < SHORT.margin
+    for point, n_tr in ((SLIPPING, 60), (STUCK, 30), (CHAOTIC_2MODES, 60)):
+        qp, qs, qsc = _settled(point, n_tr)
+        assert expo_noise_floor([qp], qs[None], qsc[None])[0] < 1e-3 * E0, point
+
+
+def test_a_point_above_the_floor_runs_on_the_rk4_pair(grazing):
+    """With ``floor_ratio`` the grazing orbit runs on the RK4 pair from the start: its window,
+    Stefanski and long-record values are those of ``beam_lle(free_method="rk4")`` to the bit, so
+    the columns beside its periodic label read no chaos; a quiet point keeps the ``expo`` pair,
+    to the bit as without the guard, whatever else is in the call."""
+    pp, start, scale = grazing
+    kw = dict(n_periods=10, plan=SHORT, n_threads=2)
+    expo_kw = dict(kw, free_method="expo", free_e0=E0, ladder_method="expo")
+    got = beam_lle([pp], start[None], scale[None], floor_ratio=RATIO, **expo_kw)[0]
+    ref = beam_lle([pp], start[None], scale[None], **kw)[0]
+    assert got.free_copy == EXPO_FLOOR_FALLBACK and got.expo_floor > RATIO * E0
+    assert np.array_equal(got.statistics.blocks, ref.statistics.blocks)
+    assert (got.benettin.value, got.stefanski.value) == (ref.benettin.value, ref.stefanski.value)
+    T = 2 * math.pi / pp.omega
+    assert got.statistics.verdict == NON_POSITIVE and got.benettin.value * T <= SHORT.margin
+    quiet = [_settled(p, n) for p, n in ((SLIPPING, 60), (STUCK, 30))]
+    pps, starts, scales = (list(v) for v in zip(*quiet))
+    both = beam_lle(pps, np.stack(starts), np.stack(scales), floor_ratio=RATIO, **expo_kw)
+    plain = beam_lle(pps[:1], starts[0][None], scales[0][None], **expo_kw)[0]
+    assert [e.free_copy for e in both] == ["expo", "expo"] and both[0].expo_floor < 1e-3 * E0
+    assert np.array_equal(both[0].statistics.blocks, plain.statistics.blocks)
+    assert both[0].benettin.value == plain.benettin.value and np.isnan(plain.expo_floor)
