@@ -113,8 +113,9 @@ def test_the_noise_floor_guard_enters_the_id_where_the_free_copy_can_be_expos():
     rk4 = Numerics.from_dict({"lyapunov": {"method": "rk4"}})
     assert point_id(params, Numerics.from_dict({"lyapunov": {"method": "rk4", "expo_floor": 0.5}})) \
         == point_id(params, rk4)
+    msg = r"numerics\.lyapunov\.expo_floor = .*allowed: a number in \(0, 1\]"
     for bad in (0, -0.1, 1.5, "high", True):
-        with pytest.raises(ValueError, match=r"numerics\.lyapunov\.expo_floor = .*allowed: a number in \(0, 1\]"):
+        with pytest.raises(ValueError, match=msg):
             Numerics.from_dict({"lyapunov": {"expo_floor": bad}})
 
 
