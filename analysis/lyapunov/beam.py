@@ -212,9 +212,10 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
         which the copy is measured and renormalised; default
         :data:`beamsim.coupled_copies.EXPO_COPY_STEPS_PER_PERIOD`).  ``"rk4"``: the RK4 pair of
         the coupled copies; ``"expo"``: drive and copy each exact between their own located
-        switches (:mod:`beamsim.kernels.expo_copies`; stick-slip law; ``expo``'s event
-        location has a noise floor near ``1e-6`` of the attractor, so ``free_e0`` must stay
-        well above it: docs/lyapunov.md, section 12).
+        switches (:mod:`beamsim.kernels.expo_copies`; stick-slip law; ``expo``'s rounding
+        opens separations near ``1e-6`` of the attractor in a period at many points and up to
+        ``1e-3`` near the slip onset, so ``free_e0`` must stay well above it: ``floor_ratio``
+        below, docs/lyapunov.md, sections 12 and 16).
     ladder_method : integrator of the Stefanski ladder's coupled copies: ``"rk4"`` (the RK4
         pair: ``e0``, ``steps_per_period``, ``step_factor``) or ``"expo"`` (the free copy's
         settings ``free_e0``, ``free_steps``, the coupling applied as its own flow at the

@@ -2,21 +2,19 @@ r"""``expo``'s noise floor at a beam point: the separation that rounding alone o
 
 The ``expo`` pair (:mod:`beamsim.kernels.expo_copies`) measures ``lambda_1`` from a copy kept at
 the scaled separation ``e0`` from its drive (:mod:`analysis.lyapunov.beam`).  Its state is a
-sum over the modes of the current stick pattern, whose eigenvector basis is far from
-orthogonal (condition numbers about ``1e4`` for the default beam), so every switch and every
-step end leaves a rounding error of about ``1e-13`` of the state, where an RK4 step leaves
-``1e-16``.  Near the slip onset the tractions of stuck elements reach the static limit slowly
-(a grazing approach), a stick -> slip switch moves by the error of the traction divided by that
-slow rate, and the drop of the traction from ``mu_s p`` to ``mu_k p`` turns the moved switch
-into a state error: over one forcing period the rounding error grows to ``1e-4`` of the
-attractor at the worst cells of the default map (docs/lyapunov.md, section 16).  A copy whose
-separation is of that size measures the noise: its record grows by ``ln(N / e0)`` per period
-whatever the dynamics.
+sum over the modes of the current stick pattern, and every switch leaves a rounding error in
+it far larger than an RK4 step's.  Near the slip onset the tractions of stuck elements reach
+the static limit slowly, so a stick -> slip switch moves by the traction's error divided by
+that slow rate, and the drop of the traction from ``mu_s p`` to ``mu_k p`` turns the moved
+switch into a state error: within one forcing period the rounding grows to a sizeable fraction
+of ``e0`` at some cells (measured: docs/lyapunov.md, section 16).  A copy whose separation is of
+that size measures the noise: its record grows by about ``ln(N / e0)`` per period whatever the
+dynamics.
 
 :func:`expo_noise_floor` measures ``N`` directly: from the same state, the drive is run over
 one forcing period on two output grids (:data:`FLOOR_GRIDS` steps per period: the same
 trajectory, split at different times, so the two runs differ by rounding only), and the scaled
-RMS of the two end states' difference (the pair's own metric) is the floor of that period; the
+RMS of the two end states' difference (the pairs' own metric) is the floor of that period; the
 largest over ``n_periods`` periods (each restarted from the first grid's end state) is the
 point's.  Where it exceeds a fraction of ``e0`` the pipeline runs the point on the RK4 pair
 (:func:`analysis.lyapunov.beam.beam_lle`, ``floor_ratio``).
