@@ -72,7 +72,7 @@ class LyapunovNumerics:
         separation that rounding alone opens in one forcing period) and a point with ``N >
         expo_floor * expo_e0`` runs on the RK4 pair throughout (window, Stefanski, long record),
         because there the ``expo`` copy would measure the noise (docs/lyapunov.md, section 16);
-        ``null`` measures no floor (the behaviour before 2026-11-28's second session).  Not part
+        ``null`` measures no floor (the behaviour before this guard).  Not part
         of a point's id when ``method`` is ``rk4`` (as ``expo_e0``).
     nolds_emb_dim : embedding dimension of the Rosenstein (nolds) estimate.
     block_periods, burn_in, min_blocks, max_blocks, confidence, margin : the long Benettin
