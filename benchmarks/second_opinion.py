@@ -11,7 +11,7 @@ Lyapunov stage started from) and runs the RK4 pair's long record alone
 * ``periodic``: the period test's periodic cells (no long record in the table, it exempts
   them) whose 25-period window or Stefanski value exceeds the margin -- a periodic label beside
   a positive exponent -- and, for them, the ``expo`` pair's long record too (``beam_lle`` as the
-  stage calls it);
+  stage called it before the noise-floor guard: no ``floor_ratio``);
 * ``measured``: every cell with a long record whose interval (the table's, from whichever pair
   decided it) is not at or below the margin, or with ``--all-measured`` every cell with a long
   record.
@@ -23,9 +23,12 @@ default rule's test), the cross-table of verdicts, and the RK4 pair's cost per p
     .venv/bin/python benchmarks/second_opinion.py                 # results/regimes/default
     .venv/bin/python benchmarks/second_opinion.py --step-factors 0.5 --all-measured
 
-About 14 minutes for the default map on one core (50 cells at 0.5 and 0.25; 2026-11-28).
-Needs ``snakemake -c2 regimes`` first; reads ``config/config.yaml``'s numerics.  Results:
-docs/lyapunov.md, section 15.
+About 14 minutes for the default map on one core (50 cells at 0.5 and 0.25; 2026-11-28, a
+map without the noise-floor guard).  Needs ``snakemake -c2 regimes`` first; reads
+``config/config.yaml``'s numerics.  On a map with the guard (``expo_floor``, the default since
+the same day) the ``periodic`` group is empty, because the guarded cells' columns are the RK4
+pair's: run the map with ``numerics.lyapunov.expo_floor: null`` to repeat section 15's check.
+Results: docs/lyapunov.md, sections 15 and 16.
 """
 
 from __future__ import annotations

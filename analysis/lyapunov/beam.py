@@ -213,9 +213,8 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
         :data:`beamsim.coupled_copies.EXPO_COPY_STEPS_PER_PERIOD`).  ``"rk4"``: the RK4 pair of
         the coupled copies; ``"expo"``: drive and copy each exact between their own located
         switches (:mod:`beamsim.kernels.expo_copies`; stick-slip law; ``expo``'s rounding
-        opens separations near ``1e-6`` of the attractor in a period at many points and up to
-        ``1e-3`` near the slip onset, so ``free_e0`` must stay well above it: ``floor_ratio``
-        below, docs/lyapunov.md, sections 12 and 16).
+        opens separations in one period that ``free_e0`` must stay well above, largest near the
+        slip onset: ``floor_ratio`` below, docs/lyapunov.md, sections 12 and 16).
     ladder_method : integrator of the Stefanski ladder's coupled copies: ``"rk4"`` (the RK4
         pair: ``e0``, ``steps_per_period``, ``step_factor``) or ``"expo"`` (the free copy's
         settings ``free_e0``, ``free_steps``, the coupling applied as its own flow at the
@@ -226,8 +225,9 @@ def beam_lle(prepared: list, x_start: np.ndarray, scales: np.ndarray, *, n_perio
         ``free_method="rk4"`` (``free_e0 = e0``); its :attr:`BeamLLE.free_copy` says so
         (:data:`ZENO_FALLBACK`).
     floor_ratio : with ``free_method="expo"``, first measure ``expo``'s noise floor ``N`` at
-        every point (:func:`analysis.lyapunov.noise_floor.expo_noise_floor`: the separation
-        that rounding alone opens in one period) and run the points where ``N > floor_ratio *
+        every point (:func:`analysis.lyapunov.noise_floor.expo_noise_floor` on its fixed
+        grids, whatever ``free_steps``: the separation that rounding alone opens in one
+        period) and run the points where ``N > floor_ratio *
         free_e0`` as with ``free_method="rk4"`` from the start (:data:`EXPO_FLOOR_FALLBACK`):
         there the ``expo`` copy would measure the noise (docs/lyapunov.md, section 16).
         ``None``: no floor is measured.  :attr:`BeamLLE.expo_floor` carries ``N``.

@@ -27,8 +27,10 @@ import numpy as np
 __all__ = ["FLOOR_GRIDS", "FLOOR_PERIODS", "expo_noise_floor"]
 
 #: the two output grids (steps per forcing period) whose runs are compared: the ``expo``
-#: copies' grid (:data:`beamsim.coupled_copies.EXPO_COPY_STEPS_PER_PERIOD`) and one that shares
-#: none of its inner step ends
+#: copies' default grid (:data:`beamsim.coupled_copies.EXPO_COPY_STEPS_PER_PERIOD`) and one that
+#: shares none of its inner step ends.  ``beam_lle`` uses them whatever its copies' grid (the
+#: convergence evidence's ``step / 2`` doubles that): the floor is the drive's rounding, not a
+#: property of one grid
 FLOOR_GRIDS = (16, 23)
 #: forcing periods measured (each from the state the first grid's run ended in)
 FLOOR_PERIODS = 3
@@ -52,7 +54,8 @@ def expo_noise_floor(prepared: list, x_start: np.ndarray, scales: np.ndarray, *,
     grids : two ``expo`` output grids, steps per forcing period.
     pattern_store : stick-pattern decompositions shared with other ``expo`` calls (a cost).
 
-    A point whose run diverges or ends non-finite gets ``inf``.  Deterministic: the runs are
+    A point whose run diverges, ends non-finite or meets ``expo``'s Zeno guard gets ``inf`` (it
+    then runs on the RK4 pair, where the Zeno fallback would have sent it too).  Deterministic: the runs are
     the simulator's, whose results do not depend on threads or batch."""
     from beamsim.simulate import simulate_batch
 
@@ -67,7 +70,9 @@ def expo_noise_floor(prepared: list, x_start: np.ndarray, scales: np.ndarray, *,
         for i, (a, b) in enumerate(zip(*runs)):
             d = (a.poincare_state[-1] - b.poincare_state[-1]) / scales[i]
             sep = float(np.sqrt(np.mean(d * d)))
-            floor[i] = max(floor[i], sep if np.isfinite(sep) and not (a.diverged or b.diverged) else np.inf)
-            if np.all(np.isfinite(a.final_state)):
+            # a diverged run, or one that met expo's Zeno guard (a jump in time), is no measure
+            trusted = np.isfinite(sep) and not (a.diverged or b.diverged or a.n_zeno or b.n_zeno)
+            floor[i] = max(floor[i], sep if trusted else np.inf)
+            if trusted:
                 x[i] = a.final_state
     return floor

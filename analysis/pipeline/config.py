@@ -53,9 +53,9 @@ class LyapunovNumerics:
         ``step_factor`` everywhere; the default until results version 12).  Labels do not
         read it.  Not part of a point's id when ``expo``.
     expo_e0 : initial (and renormalised) scaled separation of an ``expo`` free copy; ``expo``'s
-        rounding opens separations near ``1e-6`` of the attractor in one period at many points,
-        so the RK4 pair's ``1e-6`` would measure it (docs/lyapunov.md, sections 12 and 16;
-        where it reaches ``expo_e0`` itself, ``expo_floor`` applies).  Not part of a point's id
+        rounding opens separations in one period that the RK4 pair's ``1e-6`` would measure at
+        many points (docs/lyapunov.md, sections 12 and 16; where they approach ``expo_e0``
+        itself, ``expo_floor`` applies).  Not part of a point's id
         when the free copy is RK4's (:meth:`Numerics.result_dict`).
     confirm : second opinion on the ``expo`` pair's long record whose interval is not at or
         below ``margin``, one of :data:`CONFIRM_METHODS`: ``contradicted`` (the default since

@@ -211,3 +211,26 @@ def test_a_stuck_record_gets_the_exact_exponent_and_its_attractor(tmp_path):
             assert rate == 0.0
     assert labels[0.0939] == ("periodic", 1)
     assert labels[0.0][0] == "quasi-periodic", labels
+
+
+def test_the_noise_floor_setting_reaches_the_stage(tmp_path):
+    """``numerics.lyapunov.expo_floor`` reaches ``beam_lle`` through the Lyapunov stage: with
+    the default guard (0.1 of ``expo_e0``) a one-mode slipping point keeps the ``expo`` pair and
+    its table row carries the floor it measured; with a guard below that floor the same point
+    runs on the RK4 pair (``lle_free_copy`` says why); with ``null`` no floor is measured."""
+    from analysis.lyapunov.beam import EXPO_FLOOR_FALLBACK
+
+    base = {"n_transient": 60, "n_record": 128, "n_transient_max": 60, "continuation_check": False,
+            "lyapunov": {"n_periods": 10, "block_periods": 5, "burn_in": 1, "min_blocks": 2, "max_blocks": 2}}
+    point = dict(GOOD, f0_rel=2.5, mu_s=0.6)
+    rows = {}
+    for floor in (0.1, 1e-9, None):
+        nm = base | {"lyapunov": base["lyapunov"] | {"expo_floor": floor}}
+        pts = _payload([point], nm)
+        sim = simulate_points(pts, nm, str(tmp_path / str(floor)), threads=2)
+        rows[floor] = lyapunov_points(pts, sim, nm, str(tmp_path / f"l{floor}"), threads=2).iloc[0]
+    n = rows[0.1]["lle_expo_floor"]
+    assert rows[0.1]["lle_free_copy"] == "expo" and 1e-9 * 1e-4 < n < 0.1 * 1e-4, n
+    assert rows[1e-9]["lle_free_copy"] == EXPO_FLOOR_FALLBACK and rows[1e-9]["lle_expo_floor"] == n
+    assert rows[None]["lle_free_copy"] == "expo" and np.isnan(rows[None]["lle_expo_floor"])
+    assert rows[None]["lle_mean"] == rows[0.1]["lle_mean"]
