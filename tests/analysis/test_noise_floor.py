@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 import pytest
-from beam_copies import CHAOTIC_2MODES
+from beam_copies import CHAOTIC_2MODES, GRAZING, GRAZING_TRANSIENT, SLIPPING, STUCK
 
 from analysis.lyapunov.beam import (
     EXPO_FLOOR_FALLBACK,
@@ -31,14 +31,6 @@ from analysis.pipeline.stages import reference_run
 from beamsim.coupled_copies import run_copies
 from beamsim.simulate import prepare_point, simulate_batch
 
-ONE_MODE = dict(n_modes=1, mu_k=0.3, interface_damping=0.5)
-SLIPPING = dict(ONE_MODE, Omega=2.5, f0_rel=2.5, mu_s=0.6)   # period-1 orbit with slip
-STUCK = dict(ONE_MODE, Omega=2.5, f0_rel=0.5, mu_s=0.45)     # below onset: undamped, torus
-# the default map's period-1 cell just above the static slip onset (three modes) and the
-# transient its table used (as tests/analysis/test_second_opinion.py)
-GRAZING = dict(n_modes=3, mu_s=0.45, mu_k=0.3, interface_viscosity=0.0939, Omega=1.25,
-               f0_rel=1.05666829058)
-GRAZING_TRANSIENT = 1424
 E0 = 1e-4       # the pipeline's expo separation (numerics.lyapunov.expo_e0)
 RATIO = 0.1     # the pipeline's guard (numerics.lyapunov.expo_floor)
 SHORT = BlockPlan(block=5, burn_in=5, min_blocks=2, max_blocks=4, margin=0.05)

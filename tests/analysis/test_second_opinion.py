@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 import pytest
-from beam_copies import CHAOTIC_2MODES
+from beam_copies import CHAOTIC_2MODES, GRAZING, GRAZING_TRANSIENT, SLIPPING, STUCK
 
 from analysis.lyapunov.beam import (
     RK4_SECOND_OPINION,
@@ -30,15 +30,7 @@ from analysis.pipeline.stages import _second_opinion, reference_run
 from analysis.regimes import classify, poincare_says_chaotic
 from beamsim.simulate import prepare_point, simulate_batch
 
-ONE_MODE = dict(n_modes=1, mu_k=0.3, interface_damping=0.5)
-SLIPPING = dict(ONE_MODE, Omega=2.5, f0_rel=2.5, mu_s=0.6)   # period-1 orbit with slip
-STUCK = dict(ONE_MODE, Omega=2.5, f0_rel=0.5, mu_s=0.45)     # below onset: undamped, torus
 SHORT = BlockPlan(block=5, burn_in=5, min_blocks=2, max_blocks=4, margin=0.05)
-# the default map's cell (three modes, mu_s 0.45 > mu_k 0.3) at Omega 1.25, f0_rel 1.057, just
-# above the static slip onset, and the transient its table used (map of 2026-11-28)
-GRAZING = dict(n_modes=3, mu_s=0.45, mu_k=0.3, interface_viscosity=0.0939, Omega=1.25,
-               f0_rel=1.05666829058)
-GRAZING_TRANSIENT = 1424
 
 
 def _settled(points, n_transient=30):

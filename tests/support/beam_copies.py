@@ -1,6 +1,8 @@
 """Shared pieces of the beam's Lyapunov tests (tests/analysis/test_lyapunov_beam.py,
-tests/beamsim/test_expo_copies.py, tests/analysis/test_pipeline_stages.py): the two-mode
-chaotic point, stretches of its attractor, and the closed-form check of a coupled copy."""
+tests/beamsim/test_expo_copies.py, tests/analysis/test_pipeline_stages.py,
+tests/analysis/test_second_opinion.py, tests/analysis/test_noise_floor.py): the two-mode
+chaotic point, the one-mode and grazing points, stretches of the chaotic attractor, and the
+closed-form check of a coupled copy."""
 
 from __future__ import annotations
 
@@ -16,6 +18,17 @@ from beamsim.simulate import prepare_point, restart_params, simulate_batch
 #: docs/lyapunov.md s.7): weaker static/kinetic drop, and a tight Stefanski threshold
 CHAOTIC_2MODES = dict(n_modes=2, mu_s=0.45, mu_k=0.3, interface_damping=0.5, Omega=1.84770278237,
                       f0_rel=1.4962340536)
+#: one-mode points of the default friction: a period-1 orbit with slip, and a stuck torus below
+#: the slip onset (undamped)
+ONE_MODE = dict(n_modes=1, mu_k=0.3, interface_damping=0.5)
+SLIPPING = dict(ONE_MODE, Omega=2.5, f0_rel=2.5, mu_s=0.6)
+STUCK = dict(ONE_MODE, Omega=2.5, f0_rel=0.5, mu_s=0.45)
+#: the default map's period-1 cell (three modes, mu_s 0.45 > mu_k 0.3) at Omega 1.25, f0_rel
+#: 1.057, just above the static slip onset, where the expo pair read chaos (docs/lyapunov.md
+#: sections 15 and 16), and the transient its table used (map of 2026-11-28)
+GRAZING = dict(n_modes=3, mu_s=0.45, mu_k=0.3, interface_viscosity=0.0939, Omega=1.25,
+               f0_rel=1.05666829058)
+GRAZING_TRANSIENT = 1424
 
 
 def stretches(point: dict, gaps: tuple[int, ...]):

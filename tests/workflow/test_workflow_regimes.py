@@ -99,6 +99,8 @@ def test_outputs_table_schema_and_metadata(first_run):
     assert list(table["method"]) == ["expo", "expo"] and list(table["lle_free_copy"]) == ["expo", "expo"]
     # the expo pair's own statistics are the label's here, so no second-opinion columns
     assert table[["lle_expo_mean", "lle_expo_lo", "lle_expo_hi"]].isna().all().all()
+    # expo's noise floor was measured at both (numerics.lyapunov.expo_floor), below its guard
+    assert table["lle_expo_floor"].between(0.0, 0.1 * 1e-4).all(), list(table["lle_expo_floor"])
     assert table["point_id"].is_unique
     meta = read_regime_metadata(out / "tiny.parquet")
     assert len(meta["config_hash"]) == 16 and meta["grid_name"] == "tiny"
