@@ -2,7 +2,8 @@
 
 Part 1 (``--sweep``): at the default map's period-1 cell ``Omega`` 1.25, ``f0_rel`` 1.057 (from
 rest through its table's 1424-period transient), four free copies (seeds 0-3) renormalised
-every period, on the ``expo`` pair and on the RK4 pair (step factor 0.5), at separations
+every period (and within it when they leave ``[1e-2, 1e2] e0``, ``beam_lle``'s band), on the
+``expo`` pair and on the RK4 pair (step factor 0.5), at separations
 ``1e-3`` ... ``1e-7``: their growth per forcing period (after 10 of 60 periods).  A record that
 measures a fixed noise ``N`` grows by ``ln(N / e0)``; a dynamical exponent does not depend on
 ``e0``.  Also the cell's floor (:func:`analysis.lyapunov.noise_floor.expo_noise_floor`).
@@ -56,7 +57,7 @@ def sweep() -> None:
             t0 = time.perf_counter()
             le = run_copies([pp], r.final_state[None], offs, np.zeros((1, 4)), 1.0 / scale[None],
                             n_periods=60, e0=e0, renorm_period=np.ones((1, 4), np.bool_), method=method,
-                            step_factor=0.5)
+                            step_factor=0.5, band=(1e-2, 1e2))
             g = np.diff(le[0], axis=1)[:, 10:].mean(axis=1)
             print(f"{method:4s} e0 = {e0:.0e}: growth per period {g.min():+.3f} to {g.max():+.3f} "
                   f"(copies: {np.round(g, 3)}), {time.perf_counter() - t0:.1f} s", flush=True)
