@@ -58,7 +58,7 @@ from beamsim.results import (
 )
 from beamsim.two_layer import check_int, check_positive
 
-__all__ = ["simulate", "simulate_batch", "SimResult", "BatchResult", "prepare_point",
+__all__ = ["simulate", "simulate_batch", "SimResult", "BatchResult", "prepare_point", "state_params",
            "restart_params", "period_steps", "METHODS", "ENERGY_COLUMNS", "TIP_COLUMNS"]
 
 
@@ -235,14 +235,19 @@ def simulate_batch(points, *, n_transient: int = 50, n_record: int = 50,
     return BatchResult(points=points, results=results, wall_time=wall)
 
 
+def state_params(params: dict, state, n: int) -> dict:
+    """``params`` started from the full restart state ``state = (q, v, z, mode)`` (the layout of
+    ``SimResult.final_state``) of a model with ``n`` generalised coordinates."""
+    x = np.asarray(state, dtype=float)
+    nq = (x.size - 2 * n) // 2
+    return dict(params, q0=x[:n].copy(), v0=x[n:2 * n].copy(), z0=x[2 * n:2 * n + nq].copy(),
+                mode0=x[2 * n + nq:].copy())
+
+
 def restart_params(result: SimResult) -> dict:
     """Parameters that continue ``result`` from its final state (the forcing is periodic and
     every run ends on a period boundary, so restarting at ``t = 0`` is exact)."""
-    n = len(result.coord_names)
-    x = np.asarray(result.final_state, dtype=float)
-    nq = (x.size - 2 * n) // 2
-    return dict(result.params, q0=x[:n].copy(), v0=x[n:2 * n].copy(),
-                z0=x[2 * n:2 * n + nq].copy(), mode0=x[2 * n + nq:].copy())
+    return state_params(result.params, result.final_state, len(result.coord_names))
 
 
 def simulate(n_transient: int = 50, n_record: int = 50, steps_per_period: int | None = None,

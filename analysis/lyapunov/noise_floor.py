@@ -36,11 +36,6 @@ FLOOR_GRIDS = (16, 23)
 FLOOR_PERIODS = 3
 
 
-def _restart(point: dict, x: np.ndarray, n: int, nq: int) -> dict:
-    """``point`` started from the full state ``x = (q, v, z, mode)``."""
-    return dict(point, q0=x[:n], v0=x[n:2 * n], z0=x[2 * n:2 * n + nq], mode0=x[2 * n + nq:])
-
-
 def expo_noise_floor(prepared: list, x_start: np.ndarray, scales: np.ndarray, *,
                      n_periods: int = FLOOR_PERIODS, grids: tuple[int, int] = FLOOR_GRIDS,
                      n_threads: int | None = None, pattern_store=None) -> np.ndarray:
@@ -55,16 +50,16 @@ def expo_noise_floor(prepared: list, x_start: np.ndarray, scales: np.ndarray, *,
     pattern_store : stick-pattern decompositions shared with other ``expo`` calls (a cost).
 
     A point whose run diverges, ends non-finite or meets ``expo``'s Zeno guard gets ``inf`` (it
-    then runs on the RK4 pair, where the Zeno fallback would have sent it too).  Deterministic: the runs are
-    the simulator's, whose results do not depend on threads or batch."""
-    from beamsim.simulate import simulate_batch
+    then runs on the RK4 pair, where the Zeno fallback would have sent it too).  Deterministic:
+    the runs are the simulator's, whose results do not depend on threads or batch."""
+    from beamsim.simulate import simulate_batch, state_params
 
     P = len(prepared)
     x = np.array(x_start, dtype=float, copy=True)
     scales = np.asarray(scales, dtype=float)
     floor = np.zeros(P)
     for _ in range(int(n_periods)):
-        pts = [_restart(pp.params, x[i], pp.model.n, pp.model.n_quad) for i, pp in enumerate(prepared)]
+        pts = [state_params(pp.params, x[i], pp.model.n) for i, pp in enumerate(prepared)]
         runs = [simulate_batch(pts, n_transient=0, n_record=1, method="expo", steps_per_period=g,
                                n_threads=n_threads, pattern_store=pattern_store) for g in grids]
         for i, (a, b) in enumerate(zip(*runs)):

@@ -45,11 +45,9 @@ def dense_history(params: dict, numerics: Numerics, n_transient: int, n_record: 
     continues that run, up to the integrator's switch-location tolerance)."""
     if start is not None:
         from beamsim.point import prepare_point
+        from beamsim.simulate import state_params
 
-        x = np.asarray(start, dtype=float)
-        pp = prepare_point(**params)
-        n, nq = pp.model.n, pp.model.n_quad
-        params = dict(params, q0=x[:n], v0=x[n:2 * n], z0=x[2 * n:2 * n + nq], mode0=x[2 * n + nq:])
+        params = state_params(params, start, prepare_point(**params).model.n)
 
     spp = numerics.steps_per_period
     if spp is not None:
