@@ -48,7 +48,8 @@ from beamsim.results import (
 
 #: eigen-decompositions of ``C`` stick patterns: pattern bit keys, eigenvalues ``lam``, ``V``,
 #: ``V^-1``, the slips and slip rates of the modes ``SVq = S V_q``, ``SVv = S V_v``, the load
-#: power rows ``cg = g V_v``, the modal load ``gam = V^-1 [0; M^-1 g]``; the mode order
+#: power rows ``cg = g V_v``, the modal load ``gam = V^-1 [0; M^-1 g]``, the modal loads of
+#: unit interface tractions ``gS[j] = V^-1 [0; M^-1 S_j^T]`` (:func:`project`); the mode order
 #: (:func:`beamsim.kernels.real_eig.real_eig`): ``nc`` modes with ``Im lam > 0``, then the real ones, up to
 #: ``nh``, then the conjugates of the first ``nc``; ``wt`` the weight of each of the first
 #: ``nh`` modes in a real sum (2: the mode and its conjugate, 1: a real mode); ``aSVq =
@@ -61,18 +62,18 @@ from beamsim.results import (
 #: of every point of one model can share a cache, one trajectory at a time
 #: (:func:`use_model`).
 PatternCache = namedtuple("PatternCache", ("keys", "lam", "V", "Vi", "SVq", "SVv", "cg", "gam",
-                                           "nh", "nc", "wt", "aSVq", "ladder", "count",
+                                           "gS", "nh", "nc", "wt", "aSVq", "ladder", "count",
                                            "model"))
 
 #: one pattern's entries of the cache (a ``ladder`` with no rungs: every check evaluates the
 #: closed form's exponentials, as a point whose resonance guard shifted ``lam`` must)
-Modes = namedtuple("Modes", ("lam", "V", "Vi", "SVq", "SVv", "cg", "gam", "nh", "nc", "wt",
+Modes = namedtuple("Modes", ("lam", "V", "Vi", "SVq", "SVv", "cg", "gam", "gS", "nh", "nc", "wt",
                              "aSVq", "ladder"))
 
 #: per-point scratch: permanently free elements, stuck set, real state ``xr``, modal states
 #: ``zeta0`` (interval start), ``zeta`` (current), ``ztmp``, modal forcing ``beta``, the
-#: interface load ``rv``, the free parts of the rate bounds ``r1, r2`` (``r1`` also
-#: :func:`project`'s scratch), the bounds ``rate`` and their forced parts ``ratec``, the
+#: weighted interface tractions ``rv`` (:func:`project`), the free parts of the rate bounds
+#: ``r1, r2``, the bounds ``rate`` and their forced parts ``ratec``, the
 #: scratch ``mag`` (:func:`_rate_bounds`, :func:`_decayed_rates`), modal rate ``zdot``, slips
 #: ``sbuf``, slip rates ``sdbuf``, event functions
 #: ``fcur, fprev``, counters ``cnt`` (filled decompositions computed, events, checks,
@@ -134,7 +135,11 @@ def _pattern(stuck, pt):
     symmetric problem ``K_P phi = omega^2 M phi`` (lam = +-i omega, V and V^-1 in closed
     form); damped: LAPACK's real eigen-decomposition, conjugate pairs ordered by
     :func:`beamsim.kernels.real_eig.real_eig`.  Depends on the model's matrices only (not on the forcing:
-    the resonance guard is :func:`resonant`).  Returns the :data:`Modes` entries."""
+    the resonance guard is :func:`resonant`).  ``V^-1 [0; M^-1 .]`` (the modal loads ``gam``
+    and ``gS``) is formed here once per pattern, never applied to a state's load vector: the
+    mass matrix is ill-conditioned, so ``M^-1 r`` of the stuck springs' large, balanced anchor
+    loads ``r`` would leave a rounding error of ``eps cond(M)`` in the slow modes' net load at
+    every switch (docs/lyapunov.md, section 16).  Returns the :data:`Modes` entries."""
     Mm, Km, S, wq, kt, g = pt.Mm, pt.Km, pt.S, pt.wq, pt.kt, pt.g
     n = Km.shape[0]
     nq = S.shape[0]
@@ -155,6 +160,7 @@ def _pattern(stuck, pt):
         lam = np.empty(n2, np.complex128)
         V = np.empty((n2, n2), np.complex128)
         Vi = np.empty((n2, n2), np.complex128)
+        ViM = np.empty((n2, n), np.complex128)
         for k in range(n):
             wk = math.sqrt(max(w2[k], 1e-300))
             lam[k] = 1j * wk
@@ -168,6 +174,9 @@ def _pattern(stuck, pt):
                 Vi[n + k, a] = 0.5 * Psi[k, a]
                 Vi[k, n + a] = -0.5j / wk * Psi[k, a]
                 Vi[n + k, n + a] = 0.5j / wk * Psi[k, a]
+                # the velocity block of V^-1 times M^-1 in closed form (Psi M^-1 = Phi^T)
+                ViM[k, a] = -0.5j / wk * Phi[a, k]
+                ViM[n + k, a] = 0.5j / wk * Phi[a, k]
     else:
         A = np.zeros((n2, n2))
         MK = pt.Minv @ KP
@@ -179,6 +188,7 @@ def _pattern(stuck, pt):
                 A[n + a, n + b] = -MC[a, b]
         lam, V, nh, nc = real_eig(A)
         Vi = np.linalg.inv(V)
+        ViM = np.ascontiguousarray(Vi[:, n:]) @ pt.Minv.astype(np.complex128)
     if not pt.damp:
         nh = nc = n
     wt = np.zeros(n2)
@@ -189,9 +199,9 @@ def _pattern(stuck, pt):
     SVv = Sc @ np.ascontiguousarray(V[n:, :])
     gc = g.astype(np.complex128)
     cg = gc @ np.ascontiguousarray(V[n:, :])
-    Mg = (pt.Minv @ g).astype(np.complex128)
-    gam = np.ascontiguousarray(Vi[:, n:]) @ Mg
-    return lam, V, Vi, SVq, SVv, cg, gam, nh, nc, wt
+    gam = ViM @ gc
+    gS = Sc @ np.ascontiguousarray(ViM.T)
+    return lam, V, Vi, SVq, SVv, cg, gam, gS, nh, nc, wt
 
 
 @njit(cache=True, inline="always")
@@ -369,7 +379,7 @@ def _pattern_key(wk, x):
 def _fill_slot(key, cache, wk, pt):
     """Eigen-decompose the pattern ``wk.stuck`` (bit key ``key``) into a cache slot (the next
     empty one; when the cache is full, the slots in turn); returns it."""
-    lam_, V_, Vi_, SVq_, SVv_, cg_, gam_, nh_, nc_, wt_ = _pattern(wk.stuck, pt)
+    lam_, V_, Vi_, SVq_, SVv_, cg_, gam_, gS_, nh_, nc_, wt_ = _pattern(wk.stuck, pt)
     wk.cnt[_N_EIG] += 1
     count = cache.count
     C = cache.keys.shape[0]
@@ -387,6 +397,7 @@ def _fill_slot(key, cache, wk, pt):
     cache.SVv[slot] = SVv_
     cache.cg[slot] = cg_
     cache.gam[slot] = gam_
+    cache.gS[slot] = gS_
     cache.nh[slot] = nh_
     cache.nc[slot] = nc_
     cache.wt[slot] = wt_
@@ -436,33 +447,26 @@ def project(cache, slot, wk, x, pt):
     q, v, z, mode = x.q, x.v, x.z, x.mode
     n = q.shape[0]
     n2 = 2 * n
+    nq = z.shape[0]
     xr, rv = wk.xr, wk.rv
     for i in range(n):
         xr[i] = q[i]
         xr[n + i] = v[i]
-    for i in range(n):
-        rv[i] = 0.0
-    for j in range(z.shape[0]):
+    # the interface points' tractions (weighted): the modal forcing is their sum over the
+    # pattern's unit-traction loads gS, never M^-1 of their load vector (:func:`_pattern`)
+    for j in range(nq):
         if wk.free[j]:
-            continue
-        if wk.stuck[j]:
-            c = pt.kt * pt.wq[j] * z[j]
+            rv[j] = 0.0
+        elif wk.stuck[j]:
+            rv[j] = pt.kt * pt.wq[j] * z[j]
         else:
-            c = -pt.wq[j] * mode[j] * pt.tau_k[j]
-        for i in range(n):
-            rv[i] += c * pt.S[j, i]
-    bv = wk.r1
-    for i in range(n):
-        acc = 0.0
-        for a in range(n):
-            acc += pt.Minv[i, a] * rv[a]
-        bv[i] = acc
+            rv[j] = -pt.wq[j] * mode[j] * pt.tau_k[j]
     # V^-1 is complex and the state real: the real and imaginary parts of each product
     # separately (a complex product with a real factor would multiply its zero imaginary part
     # too), two modes at a time (four independent sums, where one mode alone waits for each
     # addition); every sum runs in the order of i, so the values are those of the complex
     # sums to the bit
-    Vi, nh = md.Vi, md.nh
+    Vi, gS, nh = md.Vi, md.gS, md.nh
     for k in range(0, nh, 2):
         k2 = min(k + 1, nh - 1)   # an odd last mode is summed twice, the same way
         ar = ai = ar2 = ai2 = 0.0
@@ -472,11 +476,11 @@ def project(cache, slot, wk, x, pt):
             ar2 += Vi[k2, i].real * xr[i]
             ai2 += Vi[k2, i].imag * xr[i]
         br = bi = br2 = bi2 = 0.0
-        for i in range(n):
-            br += Vi[k, n + i].real * bv[i]
-            bi += Vi[k, n + i].imag * bv[i]
-            br2 += Vi[k2, n + i].real * bv[i]
-            bi2 += Vi[k2, n + i].imag * bv[i]
+        for j in range(nq):
+            br += gS[j, k].real * rv[j]
+            bi += gS[j, k].imag * rv[j]
+            br2 += gS[j, k2].real * rv[j]
+            bi2 += gS[j, k2].imag * rv[j]
         wk.zeta0[k] = complex(ar, ai)
         wk.beta[k] = complex(br, bi)
         wk.zeta0[k2] = complex(ar2, ai2)
@@ -821,6 +825,7 @@ def new_cache(n, nq, cache_size):
                         np.empty((C, n2, n2), np.complex128), np.empty((C, n2, n2), np.complex128),
                         np.empty((C, nq, n2), np.complex128), np.empty((C, nq, n2), np.complex128),
                         np.empty((C, n2), np.complex128), np.empty((C, n2), np.complex128),
+                        np.empty((C, nq, n2), np.complex128),
                         np.zeros(C, np.int64), np.zeros(C, np.int64), np.zeros((C, n2)),
                         np.empty((C, nq, n2)), np.empty((C, LADDER_RUNGS, n2), np.complex128),
                         np.zeros(2, np.int64), np.zeros(1, np.int64))
@@ -848,7 +853,7 @@ def new_scratch(pt, n_sub, cnt):
         free[j] = pt.tau_s[j] <= 0.0
     return ExpoWork(free, np.zeros(nq, np.bool_), np.empty(n2), np.empty(n2, np.complex128),
                     np.empty(n2, np.complex128), np.empty(n2, np.complex128),
-                    np.empty(n2, np.complex128), np.empty(n), np.empty(n2), np.empty(n2),
+                    np.empty(n2, np.complex128), np.empty(nq), np.empty(n2), np.empty(n2),
                     np.empty(n2, np.complex128), np.empty(nq), np.empty(nq), np.empty(nq),
                     np.empty(nq), np.empty(nq), cnt, n_sub, np.empty(n2, np.complex128),
                     np.full(1, -1, np.int64), np.empty(n2, np.complex128),
@@ -865,7 +870,7 @@ def slot_modes(cache, slot, lam, guarded):
     eigenvalues made, is left out)."""
     rungs = 0 if guarded else LADDER_RUNGS
     return Modes(lam, cache.V[slot], cache.Vi[slot], cache.SVq[slot],
-                 cache.SVv[slot], cache.cg[slot], cache.gam[slot], cache.nh[slot],
+                 cache.SVv[slot], cache.cg[slot], cache.gam[slot], cache.gS[slot], cache.nh[slot],
                  cache.nc[slot], cache.wt[slot], cache.aSVq[slot], cache.ladder[slot, :rungs])
 
 

@@ -174,11 +174,11 @@ def _drive_modes(k, cache, log, pt, wk):
     else:
         for j in range(log.mode.shape[1]):
             wk.stuck[j] = log.mode[k, j] == 0 and not wk.free[j]
-        lam, V, Vi, SVq, SVv, cg, gam, nh, nc, wt = expo._pattern(wk.stuck, pt)
+        lam, V, Vi, SVq, SVv, cg, gam, gS, nh, nc, wt = expo._pattern(wk.stuck, pt)
         c = np.ascontiguousarray
         lam = c(lam)
         expo.shift_resonant(lam, pt.om, lam)
-        md = expo.Modes(lam, c(V), c(Vi), c(SVq), c(SVv), c(cg), c(gam), nh, nc, c(wt),
+        md = expo.Modes(lam, c(V), c(Vi), c(SVq), c(SVv), c(cg), c(gam), c(gS), nh, nc, c(wt),
                         expo.weighted_abs(SVq, wt), np.empty((0, lam.shape[0]), np.complex128))
     w = expo.ExpoWork(wk.free, wk.stuck, wk.xr, log.zeta0[k], wk.zeta, wk.ztmp, log.beta[k], wk.rv,
                       wk.r1, wk.r2, wk.zdot, wk.sbuf, wk.sdbuf, wk.fcur, wk.fprev, wk.rate, wk.cnt,

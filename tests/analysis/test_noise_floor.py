@@ -3,11 +3,13 @@
 docs/lyapunov.md, section 16).
 
 Independent checks: a record that measures noise grows by ``ln(N / e0)`` per period, so
-dividing the separation by ten adds ``ln 10`` to its growth, where a dynamical exponent does not
-depend on the separation; that is what the ``expo`` pair does at the grazing period-1 orbit of
-the default map, whose floor is above the separation, and what the RK4 pair does not do there.
-At quiet points (a slipping one-mode orbit, a stuck torus, the two-mode chaotic point) the floor
-is more than two decades below the guard; a guarded point's estimates are the RK4 pair's to the bit."""
+dividing the separation by ten would add ``ln 10`` to its growth, where a dynamical exponent
+does not depend on the separation.  At the grazing period-1 orbit of the default map, where
+``expo``'s rounding once reached the separation within a period (its slow modes' load was
+formed through the ill-conditioned mass matrix; tests/beamsim/test_expo.py checks the cause),
+the ``expo`` pair's growth does not move with its separation and is the RK4 pair's.  At quiet
+points the floor is many decades below the guard; a guarded point's estimates are the RK4
+pair's to the bit."""
 
 from __future__ import annotations
 
@@ -32,7 +34,7 @@ from beamsim.coupled_copies import run_copies
 from beamsim.simulate import prepare_point, simulate_batch
 
 E0 = 1e-4       # the pipeline's expo separation (numerics.lyapunov.expo_e0)
-RATIO = 0.1     # the pipeline's guard (numerics.lyapunov.expo_floor)
+GUARD = 1e-7    # a guard far below the pipeline's 0.1 (numerics.lyapunov.expo_floor)
 SHORT = BlockPlan(block=5, burn_in=5, min_blocks=2, max_blocks=4, margin=0.05)
 
 
@@ -59,37 +61,38 @@ def _growth(pp, start, scale, e0, method, n_periods=40, skip=10):
     return float(np.diff(le[0], axis=1)[:, skip:].mean())
 
 
-def test_the_expo_pair_measures_noise_where_its_floor_reaches_the_separation(grazing):
-    """At the grazing orbit the floor exceeds the guard (``0.1 e0``) and the ``expo`` pair's
-    growth is the noise's: it rises by about ``ln 10`` when the separation drops tenfold, and it
-    is positive at the pipeline's ``e0``; the RK4 pair's does not move with its separation and
-    stays at or below the margin.  At quiet points the floor is below ``1e-3 e0``."""
+def test_the_expo_pair_measures_the_dynamics_at_the_grazing_orbit(grazing):
+    """At the grazing orbit the floor is more than three decades below the separation (it was
+    7e-4 from rest, 7 e0, before the modal loads were formed per pattern), and the ``expo``
+    pair's growth is the dynamics': it does not move when the separation drops tenfold (a noise
+    record would gain ``ln 10``), it is the RK4 pair's within 0.02 and at or below the margin.
+    At quiet points the floor is below ``1e-3 e0`` too."""
     pp, start, scale = grazing
     floor = expo_noise_floor([pp], start[None], scale[None], n_threads=2)[0]
     expo = {e0: _growth(pp, start, scale, e0, "expo") for e0 in (E0, E0 / 10)}
     rk4 = {e0: _growth(pp, start, scale, e0, "rk4") for e0 in (1e-5, 1e-6)}
     print(f"\nfloor {floor:.2e}; expo growth per period {expo}; RK4 {rk4}")
-    assert floor > RATIO * E0
-    assert expo[E0] > 0.3
-    assert 0.6 * math.log(10) < expo[E0 / 10] - expo[E0] < 1.4 * math.log(10)
-    assert abs(rk4[1e-5] - rk4[1e-6]) < 0.1 and max(rk4.values()) < SHORT.margin
+    assert floor < 1e-3 * E0
+    assert abs(expo[E0 / 10] - expo[E0]) < 0.02
+    assert abs(expo[E0] - np.mean(list(rk4.values()))) < 0.02
+    assert max(expo.values()) < SHORT.margin and max(rk4.values()) < SHORT.margin
     for point, n_tr in ((SLIPPING, 60), (STUCK, 30), (CHAOTIC_2MODES, 60)):
         qp, qs, qsc = _settled(point, n_tr)
         assert expo_noise_floor([qp], qs[None], qsc[None])[0] < 1e-3 * E0, point
 
 
 def test_a_point_above_the_floor_runs_on_the_rk4_pair(grazing):
-    """With ``floor_ratio`` the grazing orbit runs on the RK4 pair from the start: its window,
-    Stefanski and long-record values are those of ``beam_lle(free_method="rk4")`` to the bit, so
-    the columns beside its periodic label read no chaos; in one call with two quiet points it
-    gives the same, and the quiet points keep the ``expo`` pair, to the bit as alone without
-    the guard."""
+    """With a guard far below the pipeline's (``GUARD``: the grazing orbit's floor, about 3e-9,
+    is above ``GUARD e0`` and the quiet points', about 1e-14, below) the grazing orbit runs on
+    the RK4 pair from the start: its window, Stefanski and long-record values are those of
+    ``beam_lle(free_method="rk4")`` to the bit; in one call with two quiet points it gives the
+    same, and the quiet points keep the ``expo`` pair, to the bit as alone without the guard."""
     pp, start, scale = grazing
     kw = dict(n_periods=10, plan=SHORT, n_threads=2)
     expo_kw = dict(kw, free_method="expo", free_e0=E0, ladder_method="expo")
-    got = beam_lle([pp], start[None], scale[None], floor_ratio=RATIO, **expo_kw)[0]
+    got = beam_lle([pp], start[None], scale[None], floor_ratio=GUARD, **expo_kw)[0]
     ref = beam_lle([pp], start[None], scale[None], **kw)[0]
-    assert got.free_copy == EXPO_FLOOR_FALLBACK and got.expo_floor > RATIO * E0
+    assert got.free_copy == EXPO_FLOOR_FALLBACK and got.expo_floor > GUARD * E0
     assert np.array_equal(got.statistics.blocks, ref.statistics.blocks)
     assert (got.benettin.value, got.stefanski.value) == (ref.benettin.value, ref.stefanski.value)
     T = 2 * math.pi / pp.omega
@@ -98,7 +101,7 @@ def test_a_point_above_the_floor_runs_on_the_rk4_pair(grazing):
     # each point's estimates are its own call's, to the bit, and the quiet ones the expo pair's
     quiet = [_settled(dict(GRAZING, Omega=om, f0_rel=0.8), 60) for om in (2.5, 4.0)]
     pps, starts, scales = (list(v) for v in zip(*[quiet[0], grazing, quiet[1]]))
-    mixed = beam_lle(pps, np.stack(starts), np.stack(scales), floor_ratio=RATIO, **expo_kw)
+    mixed = beam_lle(pps, np.stack(starts), np.stack(scales), floor_ratio=GUARD, **expo_kw)
     assert [e.free_copy for e in mixed] == ["expo", EXPO_FLOOR_FALLBACK, "expo"]
     for k, est in enumerate(mixed):
         alone = (got if k == 1 else
@@ -106,4 +109,4 @@ def test_a_point_above_the_floor_runs_on_the_rk4_pair(grazing):
         assert np.array_equal(est.statistics.blocks, alone.statistics.blocks), k
         assert (est.benettin.value, est.stefanski.value) == (alone.benettin.value, alone.stefanski.value), k
         if k != 1:
-            assert est.expo_floor < 1e-3 * E0 and np.isnan(alone.expo_floor), (k, est.expo_floor)
+            assert est.expo_floor < GUARD * E0 and np.isnan(alone.expo_floor), (k, est.expo_floor)

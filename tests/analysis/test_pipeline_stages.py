@@ -131,7 +131,9 @@ def test_the_ladder_setting_reaches_the_stefanski_column_only(tmp_path):
     same to the bit."""
     from beam_copies import CHAOTIC_2MODES as point
 
-    base = {"n_transient": 60, "n_record": 128, "n_transient_max": 60, "continuation_check": False,
+    # a record long enough that its Poincare samples say chaos on their own (broadband, 0-1
+    # test), so that the default second opinion leaves the expo pair's reading
+    base = {"n_transient": 200, "n_record": 256, "n_transient_max": 200, "continuation_check": False,
             "lyapunov": {"n_periods": 20, "block_periods": 5, "burn_in": 1, "min_blocks": 2, "max_blocks": 2}}
     rk4 = base | {"lyapunov": base["lyapunov"] | {"ladder": "rk4"}}
     pts = _payload([point], base)

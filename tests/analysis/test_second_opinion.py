@@ -64,7 +64,8 @@ def test_only_records_not_at_or_below_the_margin_are_measured_again():
     chaotic point's record, whose Poincare samples say chaos on their own, is left too."""
     for point, replaced in ((CHAOTIC_2MODES, True), (SLIPPING, False)):
         prepared, starts, scales = _settled([point], n_transient=60)
-        records = [simulate_batch([point], n_transient=60, n_record=128, method="expo")[0].poincare_state]
+        # the point's own Poincare record, long enough to say chaos on its own where it is chaos
+        records = [simulate_batch([point], n_transient=200, n_record=256, method="expo")[0].poincare_state]
         for confirm in ("contradicted", "all"):
             res = beam_lle(prepared, starts, scales, n_periods=5, plan=SHORT, n_threads=2,
                            free_method="expo", free_e0=1e-4, ladder_method="expo")
