@@ -6,7 +6,10 @@ every period (and within it when they leave ``[1e-2, 1e2] e0``, ``beam_lle``'s b
 ``expo`` pair and on the RK4 pair (step factor 0.5), at separations
 ``1e-3`` ... ``1e-7``: their growth per forcing period (after 10 of 60 periods).  A record that
 measures a fixed noise ``N`` grows by ``ln(N / e0)``; a dynamical exponent does not depend on
-``e0``.  Also the cell's floor (:func:`analysis.lyapunov.noise_floor.expo_noise_floor`).
+``e0``.  Also the cell's floor (:func:`analysis.lyapunov.noise_floor.expo_noise_floor`).  Up to
+results version 21 the ``expo`` pair's growth rose by ``ln 10`` per decade of ``e0`` here
+(section 16); since version 22, whose ``expo`` forms the interface tractions' modal load per
+stick pattern (section 17), it does not.
 
 Part 2 (default): the floor at every cell of a finished map, from the end states its Lyapunov
 stage started from (the simulate chunks): quartiles, the cells above ``expo_floor * expo_e0``
@@ -17,7 +20,7 @@ period-test cell's window or Stefanski value exceeds the margin.
     .venv/bin/python benchmarks/noise_floor.py              # results/regimes/default, seconds
 
 Needs ``snakemake -c2 regimes`` first for part 2; reads ``config/config.yaml``'s numerics.
-Results: docs/lyapunov.md, section 16.
+Results: docs/lyapunov.md, sections 16 and 17.
 """
 
 from __future__ import annotations

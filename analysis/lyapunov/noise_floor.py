@@ -1,15 +1,14 @@
 r"""``expo``'s noise floor at a beam point: the separation that rounding alone opens in one period.
 
 The ``expo`` pair (:mod:`beamsim.kernels.expo_copies`) measures ``lambda_1`` from a copy kept at
-the scaled separation ``e0`` from its drive (:mod:`analysis.lyapunov.beam`).  Its state is a
-sum over the modes of the current stick pattern, and every switch leaves a rounding error in
-it far larger than an RK4 step's.  Near the slip onset the tractions of stuck elements reach
-the static limit slowly, so a stick -> slip switch moves by the traction's error divided by
-that slow rate, and the drop of the traction from ``mu_s p`` to ``mu_k p`` turns the moved
-switch into a state error: within one forcing period the rounding grows to a sizeable fraction
-of ``e0`` at some cells (measured: docs/lyapunov.md, section 16).  A copy whose separation is of
-that size measures the noise: its record grows by about ``ln(N / e0)`` per period whatever the
-dynamics.
+the scaled separation ``e0`` from its drive (:mod:`analysis.lyapunov.beam`).  A copy whose
+separation is not far above the rounding that the drive itself accumulates in a period measures
+that rounding: its record grows by about ``ln(N / e0)`` per period whatever the dynamics.  Up to
+results version 21 ``expo`` left a rounding error in the slow modes at every switch (the
+interface loads' modal projection through the ill-conditioned mass matrix), and near the slip
+onset, where stuck tractions reach their limit slowly, it grew within one forcing period to a
+sizeable fraction of ``e0`` (docs/lyapunov.md, section 16).  Version 22 removed that source
+(section 17); the guard stays for noise of other origins.
 
 :func:`expo_noise_floor` measures ``N`` directly: from the same state, the drive is run over
 one forcing period on two output grids (:data:`FLOOR_GRIDS` steps per period: the same

@@ -139,7 +139,7 @@ def _pattern(stuck, pt):
     and ``gS``) is formed here once per pattern, never applied to a state's load vector: the
     mass matrix is ill-conditioned, so ``M^-1 r`` of the stuck springs' large, balanced anchor
     loads ``r`` would leave a rounding error of ``eps cond(M)`` in the slow modes' net load at
-    every switch (docs/lyapunov.md, section 16).  Returns the :data:`Modes` entries."""
+    every switch (docs/lyapunov.md, section 17).  Returns the :data:`Modes` entries."""
     Mm, Km, S, wq, kt, g = pt.Mm, pt.Km, pt.S, pt.wq, pt.kt, pt.g
     n = Km.shape[0]
     nq = S.shape[0]
