@@ -57,7 +57,7 @@ RESULTS_VERSION = "22"  # 6: adaptive transients, block statistics of lambda_1; 
 #                        margin), aperiodic samples with an interval below minus the margin
 #                        are undetermined; 22: expo's modal load of the interface tractions
 #                        from per-pattern unit loads (V^-1 M^-1 of the load vector before:
-#                        rounding in the slow modes, docs/lyapunov.md section 16)
+#                        rounding in the slow modes, docs/lyapunov.md section 17)
 
 
 def _canonical(value):

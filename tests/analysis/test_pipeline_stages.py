@@ -131,6 +131,8 @@ def test_the_ladder_setting_reaches_the_stefanski_column_only(tmp_path):
     same to the bit."""
     from beam_copies import CHAOTIC_2MODES as point
 
+    from analysis.regimes import poincare_says_chaotic
+
     # a record long enough that its Poincare samples say chaos on their own (broadband, 0-1
     # test), so that the default second opinion leaves the expo pair's reading
     base = {"n_transient": 200, "n_record": 256, "n_transient_max": 200, "continuation_check": False,
@@ -138,6 +140,7 @@ def test_the_ladder_setting_reaches_the_stefanski_column_only(tmp_path):
     rk4 = base | {"lyapunov": base["lyapunov"] | {"ladder": "rk4"}}
     pts = _payload([point], base)
     sim = simulate_points(pts, base, str(tmp_path), threads=2)
+    assert poincare_says_chaotic(poincare_array(sim["poincare_state"][0]))   # the premise
     b = lyapunov_points(pts, sim, base, str(tmp_path / "expo"), threads=2)
     a = lyapunov_points(_payload([point], rk4), sim.assign(point_id=_payload([point], rk4)[0]["point_id"]),
                         rk4, str(tmp_path / "rk4"), threads=2)

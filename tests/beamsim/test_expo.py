@@ -145,16 +145,20 @@ def test_expo_with_the_interface_dashpot_follows_rk4():
     assert d < 5e-6
 
 
-def test_an_anchor_shift_moves_expo_as_it_moves_rk4():
+@pytest.mark.parametrize("viscosity, step_factor", [(0.0939, 0.5), (0.0, 0.0625)])
+def test_an_anchor_shift_moves_expo_as_it_moves_rk4(viscosity, step_factor):
     """The response of a stuck beam to a shift ``dz`` of one stuck spring's anchor is linear in
     ``dz`` and integrator-independent: expo's traction response over one forcing period, per unit
-    anchor force, equals RK4's (step factor 0.5, itself linear to 1e-4) within 1e-3 from
-    ``dz = 1e-12`` to ``1e-9``.  The anchors' loads are large and balanced by the elastic forces;
-    expo forms their modal load from per-pattern unit loads (``gS``), where ``V^-1 M^-1`` of
-    the load vector, with the mass matrix's condition number of about 1e7, left a rounding
-    error in the slow modes that made the response at 1e-12 wrong in sign (docs/lyapunov.md,
-    section 16).  No load, static friction too high to slip, so no switch happens."""
-    point = dict(n_modes=3, mu_s=100.0, mu_k=99.0, interface_viscosity=0.0939, Omega=1.25,
+    anchor force, equals RK4's (itself linear to 3e-4) within 1e-3 from ``dz = 1e-12`` to
+    ``1e-9``, with the interface dashpot (LAPACK's decomposition; RK4 at step factor 0.5) and
+    without damping (the closed-form modes; RK4 at 0.0625, because the undamped penalty modes
+    keep the anchor shift's fast response for the whole period: docs/lyapunov.md, section 17).
+    The anchors' loads are large and balanced by the elastic forces; expo forms their modal load
+    from per-pattern unit loads (``gS``), where ``V^-1 M^-1`` of the load vector, with the
+    ill-conditioned mass matrix, left a rounding error in the slow modes that made the response
+    at 1e-12 wrong (section 17).  No load, static friction too high to slip, so no switch
+    happens."""
+    point = dict(n_modes=3, mu_s=100.0, mu_k=99.0, interface_viscosity=viscosity, Omega=1.25,
                  f0_rel=0.0)
     pp = prepare_point(**point)
     md = pp.model
@@ -174,12 +178,12 @@ def test_an_anchor_shift_moves_expo_as_it_moves_rk4():
 
     dzs = (1e-12, 1e-11, 1e-10, 1e-9)
     resp = {}
-    for method, kw in (("expo", {}), ("rk4", dict(step_factor=0.5))):
+    for method, kw in (("expo", {}), ("rk4", dict(step_factor=step_factor))):
         base = traction(method, 0.0, **kw)
         resp[method] = np.array([(traction(method, dz, **kw) - base) / (kt * dz) for dz in dzs])
     print(f"\ntraction response per unit anchor force at dz = {dzs}: {resp}")
     ref = resp["rk4"][-1]
-    assert np.abs(resp["rk4"] / ref - 1).max() < 1e-4
+    assert np.abs(resp["rk4"] / ref - 1).max() < 3e-4      # RK4's own rounding at dz = 1e-12
     assert np.abs(resp["expo"] / ref - 1).max() < 1e-3
 
 
