@@ -15,8 +15,9 @@ with the separation ``expo_e0 = 1e-4``.  This script measures, on the pipeline's
 2. **the separation** (``--e0-points``, default 4): why ``1e-4``: the mean log growth per period
    (125 periods, the last 100) of the ``expo`` pair at ``e0`` = 1e-6 ... 1e-3 against the RK4
    pair at 1e-6 and 1e-4, at the first measured points of part 1 and the two period-1 points of the
-   band where ``expo`` at 1e-6 fails (there ``expo``'s rounding opens about 1e-6 of the
-   attractor in a period; near the slip onset far more: docs/lyapunov.md sections 12 and 16);
+   band where ``expo`` at 1e-6 failed up to results version 21 (there ``expo``'s rounding
+   opened about 1e-6 of the attractor in a period; near the slip onset far more:
+   docs/lyapunov.md sections 12 and 16; version 22 removed its source, section 17);
 3. **the grazing cell** (skip with ``--no-grazing``): the two attractors of the multistability
    test's cell (``Omega = 1.378``, ``f0_rel = 0.858``, below the slip onset), where the way a
    copy takes the drive's stick/slip state decides the exponent: ``expo`` with the adoption

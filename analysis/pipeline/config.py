@@ -52,10 +52,12 @@ class LyapunovNumerics:
         artefact there): docs/lyapunov.md, section 13) or ``rk4`` (the RK4 pair on
         ``step_factor`` everywhere; the default until results version 12).  Labels do not
         read it.  Not part of a point's id when ``expo``.
-    expo_e0 : initial (and renormalised) scaled separation of an ``expo`` free copy; ``expo``'s
-        rounding opens separations in one period that the RK4 pair's ``1e-6`` would measure at
-        many points (docs/lyapunov.md, sections 12 and 16; where they approach ``expo_e0``
-        itself, ``expo_floor`` applies).  Not part of a point's id
+    expo_e0 : initial (and renormalised) scaled separation of an ``expo`` free copy, chosen
+        when ``expo``'s rounding (up to results version 21) opened separations in one period
+        that the RK4 pair's ``1e-6`` would have measured at many points (docs/lyapunov.md,
+        sections 12 and 16; version 22 removed that source, section 17, and the choice was
+        not revisited; where the floor approaches ``expo_e0``, ``expo_floor`` applies).  Not
+        part of a point's id
         when the free copy is RK4's (:meth:`Numerics.result_dict`).
     confirm : second opinion on the ``expo`` pair's long record whose interval is not at or
         below ``margin``, one of :data:`CONFIRM_METHODS`: ``contradicted`` (the default since
