@@ -24,6 +24,18 @@ record.
 
 Decision, in units of the forcing period (``lambda_1 T``), with the margin ``m``:
 ``positive`` when ``lo > m``, ``non-positive`` when ``hi <= m``, else ``undetermined``.
+
+A record that is run one block further while undetermined (:class:`BlockPlan`) is a
+sequential test: looked at after ``min_blocks``, ``min_blocks + 1``, ... ``max_blocks``
+blocks, it would call a record whose true rate is the margin positive (or non-positive) more
+often than one interval's ``(1 - c) / 2``.  A :class:`BlockPlan` therefore widens the interval
+of each look to a group-sequential boundary (:func:`look_levels`; Jennison & Turnbull 2000,
+ch. 2 and 11): each look's interval is taken at a nominal level ``1 - alpha_k`` with ``alpha_k
+= 2 Phi(-C w_k)``, ``w_k = 1`` (Pocock) or ``sqrt(K / k)`` (O'Brien-Fleming, ``K =
+max_blocks``), and ``C`` is calibrated so that on independent normal block rates whose mean
+is the margin some look decides with probability ``1 - c`` (``(1 - c) / 2`` per side).  The
+intervals are then repeated confidence intervals: all looks' intervals hold the true rate
+together with probability ``c``, so the one a record stops at is a level-``c`` interval.
 A neutral direction (torus, undamped stuck modes, a periodic orbit's phase) has zero exponent
 but finite-time growth ``ln(t2/t1) / (t2 - t1)`` when it grows linearly (shear); after a
 25-period burn-in that is at most ``ln 2 / 25 = 0.028`` per period in the first block and
@@ -34,16 +46,85 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
 __all__ = ["BlockPlan", "LLEStatistics", "POSITIVE", "NON_POSITIVE", "UNDETERMINED", "DIVERGED",
-           "block_statistics", "decide"]
+           "BOUNDARIES", "block_statistics", "boundary_constant", "decide", "look_levels"]
 
 POSITIVE = "positive"
 NON_POSITIVE = "non-positive"
 UNDETERMINED = "undetermined"
 DIVERGED = "diverged"
+
+#: Group-sequential boundaries of :class:`BlockPlan` (:func:`look_levels`); ``none`` takes every
+#: look at the stated level (the rule until results version 22).
+BOUNDARIES = ("obrien-fleming", "pocock", "none")
+
+#: Simulated sequential tests behind :func:`boundary_constant` (fixed seed: the same constant in
+#: every process); the constant is rounded up to :data:`_ROUND`.
+_N_SIMULATED, _SEED, _ROUND = 100_000, 20261128, 0.01
+
+
+def _weights(boundary: str, looks: np.ndarray, max_blocks: int) -> np.ndarray:
+    """``w_k`` of the boundary ``C w_k`` on the normal scale at the looks ``k`` (blocks)."""
+    if boundary == "pocock":
+        return np.ones(looks.size)
+    if boundary == "obrien-fleming":
+        return np.sqrt(max_blocks / looks)
+    raise ValueError(f"boundary must be one of {BOUNDARIES[:2]} here, got {boundary!r}")
+
+
+@lru_cache(maxsize=32)
+def boundary_constant(boundary: str, min_blocks: int, max_blocks: int, confidence: float) -> float:
+    """The constant ``C`` of a group-sequential boundary: looks after ``min_blocks ..
+    max_blocks`` blocks, each taking the Student-t interval at the nominal two-sided level
+    ``1 - alpha_k``, ``alpha_k = 2 Phi(-C w_k)`` (:func:`look_levels`), decide a record of
+    independent normal block rates with mean at the margin with probability ``1 - confidence``
+    in all.
+
+    Computed from :data:`_N_SIMULATED` simulated records (the looks' t statistics are pivotal:
+    neither the rates' mean nor their spread enters): ``C`` is the ``confidence`` quantile of
+    ``max_k z_k / w_k``, ``z_k`` the normal quantile of look ``k``'s two-sided t p-value,
+    rounded up to :data:`_ROUND` (so the stated level is held, not exceeded, up to the
+    simulation's error).  One look: ``Phi^-1((1 + confidence) / 2)`` exactly.
+    """
+    from scipy.special import ndtri, stdtr
+
+    looks = np.arange(int(min_blocks), int(max_blocks) + 1)
+    w = _weights(boundary, looks, int(max_blocks))
+    if looks.size == 1:
+        return float(ndtri(0.5 + confidence / 2.0) / w[0])
+    rng = np.random.default_rng(_SEED)
+    total = np.zeros(_N_SIMULATED)
+    total_sq = np.zeros(_N_SIMULATED)
+    u = np.full(_N_SIMULATED, -np.inf)
+    for k in range(1, int(max_blocks) + 1):
+        x = rng.standard_normal(_N_SIMULATED)
+        total += x
+        total_sq += x * x
+        if k < min_blocks:
+            continue
+        mean = total / k
+        sd = np.sqrt(np.maximum(total_sq - k * mean * mean, 0.0) / (k - 1))
+        tail = stdtr(k - 1, -np.abs(mean) * math.sqrt(k) / sd)  # one-sided p-value of |t|
+        np.maximum(u, -ndtri(tail) / w[k - min_blocks], out=u)
+    c = float(np.quantile(u, confidence))
+    return math.ceil(c / _ROUND) * _ROUND
+
+
+def look_levels(boundary: str, min_blocks: int, max_blocks: int, confidence: float) -> np.ndarray:
+    """Nominal two-sided confidence level of each look's interval, after ``min_blocks ..
+    max_blocks`` blocks (module docstring): ``1 - 2 Phi(-C w_k)`` with
+    :func:`boundary_constant`; ``boundary = "none"``: ``confidence`` at every look."""
+    looks = np.arange(int(min_blocks), int(max_blocks) + 1)
+    if boundary == "none":
+        return np.full(looks.size, float(confidence))
+    from scipy.special import ndtr
+
+    c = boundary_constant(boundary, int(min_blocks), int(max_blocks), float(confidence))
+    return 1.0 - 2.0 * ndtr(-c * _weights(boundary, looks, int(max_blocks)))
 
 
 @dataclass(frozen=True)
@@ -53,8 +134,13 @@ class BlockPlan:
 
     block, burn_in : periods per block, periods discarded at the start.
     min_blocks, max_blocks : blocks measured at least / at most (``2 <= min <= max``).
-    confidence : two-sided level of the interval.
+    confidence : two-sided level of the interval the record stops at (of the sequential test,
+        through ``boundary``).
     margin : per forcing period (:func:`decide`).
+    boundary : one of :data:`BOUNDARIES`: each look's interval is widened to this
+        group-sequential boundary (module docstring), so that the verdict's error rates at the
+        margin are ``(1 - confidence) / 2`` per side whichever look takes it; ``none``: every
+        look at ``confidence`` (more looks, more errors: docs/lyapunov.md, section 10).
     """
 
     block: int = 25
@@ -63,6 +149,7 @@ class BlockPlan:
     max_blocks: int = 16
     confidence: float = 0.95
     margin: float = 0.05
+    boundary: str = "obrien-fleming"
 
     def __post_init__(self):
         if not (self.block >= 1 and self.burn_in >= 0 and 2 <= self.min_blocks <= self.max_blocks):
@@ -70,6 +157,8 @@ class BlockPlan:
                              f"max_blocks; got {self}")
         if not 0.0 < self.confidence < 1.0:
             raise ValueError(f"BlockPlan.confidence must be in (0, 1), got {self.confidence!r}")
+        if self.boundary not in BOUNDARIES:
+            raise ValueError(f"BlockPlan.boundary must be one of {BOUNDARIES}, got {self.boundary!r}")
 
     @property
     def first_periods(self) -> int:
@@ -81,10 +170,20 @@ class BlockPlan:
         """Periods of the longest record."""
         return self.burn_in + self.max_blocks * self.block
 
+    def look_confidence(self, n_blocks: int) -> float:
+        """Nominal two-sided level of the interval after ``n_blocks`` blocks
+        (:func:`look_levels`; a record shorter than ``min_blocks`` blocks is taken at the first
+        look's level, one longer than ``max_blocks`` at the last's)."""
+        levels = look_levels(self.boundary, self.min_blocks, self.max_blocks, self.confidence)
+        return float(levels[min(max(int(n_blocks), self.min_blocks), self.max_blocks) - self.min_blocks])
+
     def statistics(self, log_err: np.ndarray, period: float) -> LLEStatistics:
-        """:func:`block_statistics` of ``log_err`` with this plan's settings."""
+        """:func:`block_statistics` of ``log_err`` with this plan's settings, its interval at
+        the level of its look (:meth:`look_confidence`)."""
+        n_blocks = (np.asarray(log_err).size - 1 - self.burn_in) // self.block
         return block_statistics(log_err, period, block=self.block, burn_in=self.burn_in,
-                                confidence=self.confidence, margin=self.margin)
+                                confidence=self.confidence, margin=self.margin,
+                                look_confidence=self.look_confidence(n_blocks))
 
     def continues(self, stats: LLEStatistics) -> bool:
         """Whether a record with these statistics is run one block further: its verdict is
@@ -97,8 +196,8 @@ class BlockPlan:
         :meth:`continues`, as the beam's records are run
         (:func:`analysis.lyapunov.beam.beam_lle`, whose first run is :attr:`first_periods` long
         where the Stefanski window is not longer).  The verdict is taken at every block from
-        ``min_blocks`` on, so its error rates are those of a sequential test, not of one
-        interval (docs/lyapunov.md, section 10)."""
+        ``min_blocks`` on, so its error rates are those of a sequential test, held at
+        ``(1 - confidence) / 2`` per side by :attr:`boundary` (docs/lyapunov.md, section 10)."""
         log_err = np.asarray(log_err, dtype=float)
         if log_err.size - 1 < self.max_periods:
             raise ValueError(f"the record holds {log_err.size - 1} periods, the plan needs "
@@ -119,11 +218,14 @@ class LLEStatistics:
     """Block statistics of ``lambda_1`` (rates per unit time; multiply by ``T`` for per period).
 
     mean, se : mean block rate and its standard error.
-    lo, hi : the confidence interval ``mean -+ t se``.
+    lo, hi : the confidence interval ``mean -+ t se``, ``t`` at the level ``look_confidence``.
     blocks : the block rates, in time order.
     n_periods : periods measured (after the burn-in), ``len(blocks) * block``.
     block, burn_in : periods per block and periods discarded at the start.
-    confidence : two-sided confidence level of ``[lo, hi]``.
+    confidence : two-sided confidence level of ``[lo, hi]`` as the stopping interval of a
+        :class:`BlockPlan`'s sequential test (of one fixed-length record without a plan).
+    look_confidence : the nominal level its t quantile was taken at (``confidence`` without a
+        plan or with ``boundary = "none"``; higher on a group-sequential boundary).
     verdict : :data:`POSITIVE`, :data:`NON_POSITIVE`, :data:`UNDETERMINED` (interval
         straddles the margin) or :data:`DIVERGED` (the record is not finite).
     margin : the margin per forcing period the verdict was taken against.
@@ -142,6 +244,7 @@ class LLEStatistics:
     verdict: str
     margin: float
     period: float
+    look_confidence: float
 
     @property
     def per_period(self) -> tuple[float, float, float, float]:
@@ -150,9 +253,12 @@ class LLEStatistics:
         return self.mean * T, self.se * T, self.lo * T, self.hi * T
 
     def summary(self) -> str:
-        """One line: ``lambda_1 T = mean +- se (95 % CI [lo, hi]) over N periods: verdict``."""
+        """One line: ``lambda_1 T = mean +- se (95 % CI [lo, hi]) over N periods: verdict``
+        (with the look's nominal level where it differs)."""
         m, s, lo, hi = self.per_period
-        return (f"lambda_1 T = {m:.3g} +- {s:.2g} ({100 * self.confidence:.0f} % CI "
+        look = ("" if self.look_confidence == self.confidence
+                else f", this look at {100 * self.look_confidence:.2f} %")
+        return (f"lambda_1 T = {m:.3g} +- {s:.2g} ({100 * self.confidence:.0f} % CI{look} "
                 f"[{lo:.3g}, {hi:.3g}]) over {self.n_periods} periods in {len(self.blocks)} "
                 f"blocks, margin {self.margin:g}: {self.verdict}")
 
@@ -169,7 +275,8 @@ def decide(lo_per_period: float, hi_per_period: float, margin: float) -> str:
 
 
 def block_statistics(log_err: np.ndarray, period: float, *, block: int = 25, burn_in: int = 25,
-                     confidence: float = 0.95, margin: float = 0.05) -> LLEStatistics:
+                     confidence: float = 0.95, margin: float = 0.05,
+                     look_confidence: float | None = None) -> LLEStatistics:
     """Block statistics of one renormalised record (module docstring).
 
     log_err : ``ln eps`` at the period ends ``0 .. K`` (``K >= burn_in + 2 block``), rescaling
@@ -179,6 +286,8 @@ def block_statistics(log_err: np.ndarray, period: float, *, block: int = 25, bur
         block is left out.
     confidence : two-sided level of the interval, in (0, 1).
     margin : per forcing period (see :func:`decide`).
+    look_confidence : the nominal level of the t quantile when it is not ``confidence`` (a
+        look of a sequential test: :meth:`BlockPlan.statistics`).
     """
     log_err = np.asarray(log_err, dtype=float)
     block, burn_in = int(block), int(burn_in)
@@ -186,6 +295,9 @@ def block_statistics(log_err: np.ndarray, period: float, *, block: int = 25, bur
         raise ValueError(f"block must be >= 1 and burn_in >= 0, got {block}, {burn_in}")
     if not 0.0 < confidence < 1.0:
         raise ValueError(f"confidence must be in (0, 1), got {confidence!r}")
+    look = confidence if look_confidence is None else float(look_confidence)
+    if not 0.0 < look < 1.0:
+        raise ValueError(f"look_confidence must be in (0, 1), got {look_confidence!r}")
     if not period > 0:
         raise ValueError(f"period must be > 0, got {period!r}")
     n_blocks = (log_err.size - 1 - burn_in) // block
@@ -196,17 +308,17 @@ def block_statistics(log_err: np.ndarray, period: float, *, block: int = 25, bur
     nan, ninf = float("nan"), float("-inf")
     if np.any(np.isnan(log_err) | (log_err == np.inf)):
         return LLEStatistics(nan, nan, nan, nan, np.full(n_blocks, nan), n_blocks * block, block,
-                             burn_in, confidence, DIVERGED, margin, period)
+                             burn_in, confidence, DIVERGED, margin, period, look)
     if np.any(np.isneginf(ends)):  # the copy coincided with the drive (round-off): contraction
         return LLEStatistics(ninf, 0.0, ninf, ninf, np.full(n_blocks, ninf), n_blocks * block,
-                             block, burn_in, confidence, NON_POSITIVE, margin, period)
+                             block, burn_in, confidence, NON_POSITIVE, margin, period, look)
     blocks = np.diff(ends) / (block * period)
     mean = float(blocks.mean())
     se = float(blocks.std(ddof=1) / math.sqrt(n_blocks))
     from scipy.special import stdtrit  # Student's t quantile (what scipy.stats.t.ppf calls); not
     # scipy.stats, and not at the top: slow to import, and the Snakefile's plan imports this
 
-    half = float(stdtrit(n_blocks - 1, 0.5 + confidence / 2.0)) * se
+    half = float(stdtrit(n_blocks - 1, 0.5 + look / 2.0)) * se
     lo, hi = mean - half, mean + half
     return LLEStatistics(mean, se, lo, hi, blocks, n_blocks * block, block, burn_in, confidence,
-                         decide(lo * period, hi * period, margin), margin, period)
+                         decide(lo * period, hi * period, margin), margin, period, look)

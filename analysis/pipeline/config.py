@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any, Mapping
 
-from analysis.lyapunov.block_statistics import BlockPlan
+from analysis.lyapunov.block_statistics import BOUNDARIES, BlockPlan
 from beamsim.results import INTEGRATORS
 
 __all__ = ["CONFIRM_METHODS", "LYAPUNOV_METHODS", "LyapunovNumerics", "Numerics", "as_numerics"]
@@ -77,12 +77,14 @@ class LyapunovNumerics:
         ``null`` measures no floor (the behaviour before this guard).  Not part
         of a point's id when ``method`` is ``rk4`` (as ``expo_e0``).
     nolds_emb_dim : embedding dimension of the Rosenstein (nolds) estimate.
-    block_periods, burn_in, min_blocks, max_blocks, confidence, margin : the long Benettin
-        record whose block statistics decide the label
+    block_periods, burn_in, min_blocks, max_blocks, confidence, margin, boundary : the long
+        Benettin record whose block statistics decide the label
         (:class:`analysis.lyapunov.block_statistics.BlockPlan`): ``burn_in + min_blocks *
         block_periods`` periods first, extended one block at a time while the
         ``confidence`` interval of ``lambda_1 T`` straddles ``margin`` (per forcing period),
-        up to ``max_blocks`` blocks.
+        up to ``max_blocks`` blocks; each look's interval widened to the group-sequential
+        ``boundary`` (one of :data:`analysis.lyapunov.block_statistics.BOUNDARIES`), so that
+        ``confidence`` is the level of the sequential test, not of each look.
     """
 
     n_periods: int = 25
@@ -100,11 +102,13 @@ class LyapunovNumerics:
     max_blocks: int = BlockPlan.max_blocks
     confidence: float = BlockPlan.confidence
     margin: float = BlockPlan.margin
+    boundary: str = BlockPlan.boundary
 
     def block_plan(self) -> BlockPlan:
         """The :class:`analysis.lyapunov.block_statistics.BlockPlan` of these settings."""
         return BlockPlan(block=self.block_periods, burn_in=self.burn_in, min_blocks=self.min_blocks,
-                         max_blocks=self.max_blocks, confidence=self.confidence, margin=self.margin)
+                         max_blocks=self.max_blocks, confidence=self.confidence, margin=self.margin,
+                         boundary=self.boundary)
 
 
 @dataclass(frozen=True)
@@ -162,6 +166,9 @@ class Numerics:
         if lyap.get("confirm", LyapunovNumerics.confirm) not in CONFIRM_METHODS:
             raise ValueError(f"numerics.lyapunov.confirm = {lyap['confirm']!r}; allowed: "
                              f"{', '.join(CONFIRM_METHODS)}")
+        if lyap.get("boundary", LyapunovNumerics.boundary) not in BOUNDARIES:
+            raise ValueError(f"numerics.lyapunov.boundary = {lyap['boundary']!r}; allowed: "
+                             f"{', '.join(BOUNDARIES)}")
         floor = lyap.get("expo_floor", LyapunovNumerics.expo_floor)
         if floor is not None and (isinstance(floor, bool) or not isinstance(floor, (int, float))
                                   or not 0.0 < floor <= 1.0):

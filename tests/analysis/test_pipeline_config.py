@@ -119,6 +119,21 @@ def test_the_noise_floor_guard_enters_the_id_where_the_free_copy_can_be_expos():
             Numerics.from_dict({"lyapunov": {"expo_floor": bad}})
 
 
+def test_the_sequential_boundary_enters_the_id_and_is_checked_by_name():
+    """``lyapunov.boundary`` widens the long record's intervals, so it is part of every point's
+    id; a value outside its choices is refused by name with the choices."""
+    params = {"n_modes": 1, "Omega": 2.0}
+    assert Numerics().lyapunov.boundary == "obrien-fleming"
+    assert Numerics().lyapunov.block_plan().boundary == "obrien-fleming"
+    for other in ("pocock", "none"):
+        num = Numerics.from_dict({"lyapunov": {"boundary": other}})
+        assert num.lyapunov.block_plan().boundary == other
+        assert point_id(params, num) != point_id(params, Numerics())
+    msg = r"numerics\.lyapunov\.boundary = 'bonferroni'; allowed: obrien-fleming, pocock, none"
+    with pytest.raises(ValueError, match=msg):
+        Numerics.from_dict({"lyapunov": {"boundary": "bonferroni"}})
+
+
 @pytest.mark.parametrize("bad, key", [({"step_size": 1.0}, "step_size"),
                                       ({"lyapunov": {"periods": 3}}, "periods"),
                                       ({"method": "euler"}, "euler")])
