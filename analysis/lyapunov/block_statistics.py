@@ -29,13 +29,14 @@ A record that is run one block further while undetermined (:class:`BlockPlan`) i
 sequential test: looked at after ``min_blocks``, ``min_blocks + 1``, ... ``max_blocks``
 blocks, it would call a record whose true rate is the margin positive (or non-positive) more
 often than one interval's ``(1 - c) / 2``.  A :class:`BlockPlan` therefore widens the interval
-of each look to a group-sequential boundary (:func:`look_levels`; Jennison & Turnbull 2000,
-ch. 2 and 11): each look's interval is taken at a nominal level ``1 - alpha_k`` with ``alpha_k
-= 2 Phi(-C w_k)``, ``w_k = 1`` (Pocock) or ``sqrt(K / k)`` (O'Brien-Fleming, ``K =
-max_blocks``), and ``C`` is calibrated so that on independent normal block rates whose mean
-is the margin some look decides with probability ``1 - c`` (``(1 - c) / 2`` per side).  The
-intervals are then repeated confidence intervals: all looks' intervals hold the true rate
-together with probability ``c``, so the one a record stops at is a level-``c`` interval.
+of each look to a group-sequential boundary (:func:`look_errors`; Jennison & Turnbull 2000,
+ch. 2 and 11): each look's interval is taken at a nominal two-sided error ``alpha_k = 2
+Phi(-C w_k)``, ``w_k = 1`` (Pocock) or ``sqrt(K / k)`` (O'Brien-Fleming, ``K = max_blocks``),
+and ``C`` is calibrated so that on independent normal block rates whose mean is the margin
+some look decides with probability ``1 - c`` (``(1 - c) / 2`` per side).  The intervals are
+then repeated confidence intervals: on such records all looks' intervals hold the true rate
+together with probability ``c``, so over records the interval each stops at holds it with at
+least that probability (a marginal guarantee, not one conditional on the look that stopped).
 A neutral direction (torus, undamped stuck modes, a periodic orbit's phase) has zero exponent
 but finite-time growth ``ln(t2/t1) / (t2 - t1)`` when it grows linearly (shear); after a
 25-period burn-in that is at most ``ln 2 / 25 = 0.028`` per period in the first block and
@@ -51,14 +52,15 @@ from functools import lru_cache
 import numpy as np
 
 __all__ = ["BlockPlan", "LLEStatistics", "POSITIVE", "NON_POSITIVE", "UNDETERMINED", "DIVERGED",
-           "BOUNDARIES", "block_statistics", "boundary_constant", "decide", "look_levels"]
+           "BOUNDARIES", "block_statistics", "boundary_constant", "decide", "look_errors",
+           "look_levels"]
 
 POSITIVE = "positive"
 NON_POSITIVE = "non-positive"
 UNDETERMINED = "undetermined"
 DIVERGED = "diverged"
 
-#: Group-sequential boundaries of :class:`BlockPlan` (:func:`look_levels`); ``none`` takes every
+#: Group-sequential boundaries of :class:`BlockPlan` (:func:`look_errors`); ``none`` takes every
 #: look at the stated level (the rule until results version 22).
 BOUNDARIES = ("obrien-fleming", "pocock", "none")
 
@@ -80,7 +82,7 @@ def _weights(boundary: str, looks: np.ndarray, max_blocks: int) -> np.ndarray:
 def boundary_constant(boundary: str, min_blocks: int, max_blocks: int, confidence: float) -> float:
     """The constant ``C`` of a group-sequential boundary: looks after ``min_blocks ..
     max_blocks`` blocks, each taking the Student-t interval at the nominal two-sided level
-    ``1 - alpha_k``, ``alpha_k = 2 Phi(-C w_k)`` (:func:`look_levels`), decide a record of
+    ``1 - alpha_k``, ``alpha_k = 2 Phi(-C w_k)`` (:func:`look_errors`), decide a record of
     independent normal block rates with mean at the margin with probability ``1 - confidence``
     in all.
 
@@ -114,17 +116,25 @@ def boundary_constant(boundary: str, min_blocks: int, max_blocks: int, confidenc
     return math.ceil(c / _ROUND) * _ROUND
 
 
-def look_levels(boundary: str, min_blocks: int, max_blocks: int, confidence: float) -> np.ndarray:
-    """Nominal two-sided confidence level of each look's interval, after ``min_blocks ..
-    max_blocks`` blocks (module docstring): ``1 - 2 Phi(-C w_k)`` with
-    :func:`boundary_constant`; ``boundary = "none"``: ``confidence`` at every look."""
+def look_errors(boundary: str, min_blocks: int, max_blocks: int, confidence: float) -> np.ndarray:
+    """Nominal two-sided error ``alpha_k`` of each look's interval, after ``min_blocks ..
+    max_blocks`` blocks (module docstring): ``2 Phi(-C w_k)`` with :func:`boundary_constant`;
+    ``boundary = "none"``: ``1 - confidence`` at every look.  Errors, not levels: the first
+    looks of a wide O'Brien-Fleming boundary have ``alpha_k`` far below the spacing of doubles
+    near 1."""
     looks = np.arange(int(min_blocks), int(max_blocks) + 1)
     if boundary == "none":
-        return np.full(looks.size, float(confidence))
+        return np.full(looks.size, 1.0 - float(confidence))
     from scipy.special import ndtr
 
     c = boundary_constant(boundary, int(min_blocks), int(max_blocks), float(confidence))
-    return 1.0 - 2.0 * ndtr(-c * _weights(boundary, looks, int(max_blocks)))
+    return 2.0 * ndtr(-c * _weights(boundary, looks, int(max_blocks)))
+
+
+def look_levels(boundary: str, min_blocks: int, max_blocks: int, confidence: float) -> np.ndarray:
+    """Nominal two-sided confidence level ``1 - alpha_k`` of each look (:func:`look_errors`;
+    for display: the first levels of a wide boundary round to 1)."""
+    return 1.0 - look_errors(boundary, min_blocks, max_blocks, confidence)
 
 
 @dataclass(frozen=True)
@@ -138,8 +148,9 @@ class BlockPlan:
         through ``boundary``).
     margin : per forcing period (:func:`decide`).
     boundary : one of :data:`BOUNDARIES`: each look's interval is widened to this
-        group-sequential boundary (module docstring), so that the verdict's error rates at the
-        margin are ``(1 - confidence) / 2`` per side whichever look takes it; ``none``: every
+        group-sequential boundary (module docstring), so that a record whose rate is the
+        margin gets either verdict with probability ``(1 - confidence) / 2`` over all looks
+        together; ``none``: every
         look at ``confidence`` (more looks, more errors: docs/lyapunov.md, section 10).
     """
 
@@ -170,20 +181,25 @@ class BlockPlan:
         """Periods of the longest record."""
         return self.burn_in + self.max_blocks * self.block
 
+    def look_error(self, n_blocks: int) -> float:
+        """Nominal two-sided error of the interval after ``n_blocks`` blocks
+        (:func:`look_errors`; a record shorter than ``min_blocks`` blocks is taken at the first
+        look's, one longer than ``max_blocks`` at the last's)."""
+        errors = look_errors(self.boundary, self.min_blocks, self.max_blocks, self.confidence)
+        return float(errors[min(max(int(n_blocks), self.min_blocks), self.max_blocks) - self.min_blocks])
+
     def look_confidence(self, n_blocks: int) -> float:
-        """Nominal two-sided level of the interval after ``n_blocks`` blocks
-        (:func:`look_levels`; a record shorter than ``min_blocks`` blocks is taken at the first
-        look's level, one longer than ``max_blocks`` at the last's)."""
-        levels = look_levels(self.boundary, self.min_blocks, self.max_blocks, self.confidence)
-        return float(levels[min(max(int(n_blocks), self.min_blocks), self.max_blocks) - self.min_blocks])
+        """``1 - look_error(n_blocks)``: the look's nominal level (rounds to 1 at the first
+        looks of a wide boundary; the interval is computed from the error)."""
+        return 1.0 - self.look_error(n_blocks)
 
     def statistics(self, log_err: np.ndarray, period: float) -> LLEStatistics:
         """:func:`block_statistics` of ``log_err`` with this plan's settings, its interval at
-        the level of its look (:meth:`look_confidence`)."""
+        the error of its look (:meth:`look_error`)."""
         n_blocks = (np.asarray(log_err).size - 1 - self.burn_in) // self.block
         return block_statistics(log_err, period, block=self.block, burn_in=self.burn_in,
                                 confidence=self.confidence, margin=self.margin,
-                                look_confidence=self.look_confidence(n_blocks))
+                                look_error=self.look_error(n_blocks))
 
     def continues(self, stats: LLEStatistics) -> bool:
         """Whether a record with these statistics is run one block further: its verdict is
@@ -197,7 +213,8 @@ class BlockPlan:
         (:func:`analysis.lyapunov.beam.beam_lle`, whose first run is :attr:`first_periods` long
         where the Stefanski window is not longer).  The verdict is taken at every block from
         ``min_blocks`` on, so its error rates are those of a sequential test, held at
-        ``(1 - confidence) / 2`` per side by :attr:`boundary` (docs/lyapunov.md, section 10)."""
+        ``(1 - confidence) / 2`` per side at the margin by :attr:`boundary` (docs/lyapunov.md,
+        section 10)."""
         log_err = np.asarray(log_err, dtype=float)
         if log_err.size - 1 < self.max_periods:
             raise ValueError(f"the record holds {log_err.size - 1} periods, the plan needs "
@@ -218,14 +235,15 @@ class LLEStatistics:
     """Block statistics of ``lambda_1`` (rates per unit time; multiply by ``T`` for per period).
 
     mean, se : mean block rate and its standard error.
-    lo, hi : the confidence interval ``mean -+ t se``, ``t`` at the level ``look_confidence``.
+    lo, hi : the confidence interval ``mean -+ t se``, ``t`` at the two-sided error
+        ``look_error``.
     blocks : the block rates, in time order.
     n_periods : periods measured (after the burn-in), ``len(blocks) * block``.
     block, burn_in : periods per block and periods discarded at the start.
     confidence : two-sided confidence level of ``[lo, hi]`` as the stopping interval of a
         :class:`BlockPlan`'s sequential test (of one fixed-length record without a plan).
-    look_confidence : the nominal level its t quantile was taken at (``confidence`` without a
-        plan or with ``boundary = "none"``; higher on a group-sequential boundary).
+    look_error : the nominal two-sided error its t quantile was taken at (``1 - confidence``
+        without a plan or with ``boundary = "none"``; smaller on a group-sequential boundary).
     verdict : :data:`POSITIVE`, :data:`NON_POSITIVE`, :data:`UNDETERMINED` (interval
         straddles the margin) or :data:`DIVERGED` (the record is not finite).
     margin : the margin per forcing period the verdict was taken against.
@@ -244,7 +262,12 @@ class LLEStatistics:
     verdict: str
     margin: float
     period: float
-    look_confidence: float
+    look_error: float
+
+    @property
+    def look_confidence(self) -> float:
+        """``1 - look_error`` (rounds to 1 at the first looks of a wide boundary)."""
+        return 1.0 - self.look_error
 
     @property
     def per_period(self) -> tuple[float, float, float, float]:
@@ -256,8 +279,8 @@ class LLEStatistics:
         """One line: ``lambda_1 T = mean +- se (95 % CI [lo, hi]) over N periods: verdict``
         (with the look's nominal level where it differs)."""
         m, s, lo, hi = self.per_period
-        look = ("" if self.look_confidence == self.confidence
-                else f", this look at {100 * self.look_confidence:.2f} %")
+        look = ("" if math.isclose(self.look_error, 1.0 - self.confidence, rel_tol=1e-9)
+                else f", this look's two-sided error {self.look_error:.2g}")
         return (f"lambda_1 T = {m:.3g} +- {s:.2g} ({100 * self.confidence:.0f} % CI{look} "
                 f"[{lo:.3g}, {hi:.3g}]) over {self.n_periods} periods in {len(self.blocks)} "
                 f"blocks, margin {self.margin:g}: {self.verdict}")
@@ -276,7 +299,7 @@ def decide(lo_per_period: float, hi_per_period: float, margin: float) -> str:
 
 def block_statistics(log_err: np.ndarray, period: float, *, block: int = 25, burn_in: int = 25,
                      confidence: float = 0.95, margin: float = 0.05,
-                     look_confidence: float | None = None) -> LLEStatistics:
+                     look_error: float | None = None) -> LLEStatistics:
     """Block statistics of one renormalised record (module docstring).
 
     log_err : ``ln eps`` at the period ends ``0 .. K`` (``K >= burn_in + 2 block``), rescaling
@@ -286,8 +309,8 @@ def block_statistics(log_err: np.ndarray, period: float, *, block: int = 25, bur
         block is left out.
     confidence : two-sided level of the interval, in (0, 1).
     margin : per forcing period (see :func:`decide`).
-    look_confidence : the nominal level of the t quantile when it is not ``confidence`` (a
-        look of a sequential test: :meth:`BlockPlan.statistics`).
+    look_error : the nominal two-sided error of the t quantile when it is not ``1 -
+        confidence`` (a look of a sequential test: :meth:`BlockPlan.statistics`).
     """
     log_err = np.asarray(log_err, dtype=float)
     block, burn_in = int(block), int(burn_in)
@@ -295,9 +318,9 @@ def block_statistics(log_err: np.ndarray, period: float, *, block: int = 25, bur
         raise ValueError(f"block must be >= 1 and burn_in >= 0, got {block}, {burn_in}")
     if not 0.0 < confidence < 1.0:
         raise ValueError(f"confidence must be in (0, 1), got {confidence!r}")
-    look = confidence if look_confidence is None else float(look_confidence)
+    look = 1.0 - confidence if look_error is None else float(look_error)
     if not 0.0 < look < 1.0:
-        raise ValueError(f"look_confidence must be in (0, 1), got {look_confidence!r}")
+        raise ValueError(f"look_error must be in (0, 1), got {look_error!r}")
     if not period > 0:
         raise ValueError(f"period must be > 0, got {period!r}")
     n_blocks = (log_err.size - 1 - burn_in) // block
@@ -318,7 +341,7 @@ def block_statistics(log_err: np.ndarray, period: float, *, block: int = 25, bur
     from scipy.special import stdtrit  # Student's t quantile (what scipy.stats.t.ppf calls); not
     # scipy.stats, and not at the top: slow to import, and the Snakefile's plan imports this
 
-    half = float(stdtrit(n_blocks - 1, 0.5 + look / 2.0)) * se
+    half = -float(stdtrit(n_blocks - 1, look / 2.0)) * se  # the upper quantile, from the tail
     lo, hi = mean - half, mean + half
     return LLEStatistics(mean, se, lo, hi, blocks, n_blocks * block, block, burn_in, confidence,
                          decide(lo * period, hi * period, margin), margin, period, look)

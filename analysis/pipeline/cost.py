@@ -9,7 +9,8 @@ The estimate is a cost model, ``seconds = c * periods / Omega``, per stage and p
   scaled by ``0.5 / step_factor``) with ``periods`` the
   Stefanski window ``n_periods`` plus, for the expected share :data:`LONG_RECORD_SHARE` of the
   points that need the label's long Benettin record, the periods its expected length (the first
-  run plus the share :data:`LONG_RECORD_REACH` of the way from it to the cap) adds;
+  run plus the share :data:`LONG_RECORD_REACH` of its boundary of the way from it to the
+  cap) adds;
 * the adaptive transient adds one continuation (``n_transient + n_record`` periods) to the
   expected share :data:`EXTENDED_SHARE` of the points;
 * the continuation check (``numerics.continuation_check``) adds ``n_record`` periods to every
@@ -59,10 +60,12 @@ LONG_RUN_SECONDS = 3600
 #: expected share of points whose label needs the long Benettin record (default grid: 0.26)
 LONG_RECORD_SHARE = 1.0 / 3.0
 #: how far a long Benettin record runs on average, as a share of the way from the plan's first
-#: run to its cap (the default map of results version 21: 180 periods between 100 and 425 at
-#: the 16-block cap, 0.25; 145 between 100 and 225 at the 8-block cap, 0.36, which this
-#: share estimates 10 % short)
-LONG_RECORD_REACH = 0.25
+#: run to its cap, per sequential boundary (``numerics.lyapunov.boundary``).  The default map:
+#: with every look at 95 % (``none``) 207 periods between 100 and 425 at results version 22,
+#: 0.33 (180 at version 21, 0.25); on the O'Brien-Fleming boundary 298 at version 23, 0.61;
+#: Pocock not measured on the map, taken as O'Brien-Fleming's (on synthetic records its
+#: records are 3-20 % shorter: docs/lyapunov.md, section 10)
+LONG_RECORD_REACH = {"obrien-fleming": 0.61, "pocock": 0.61, "none": 0.33}
 #: expected share of points the adaptive transient continues (default grid: 0.29)
 EXTENDED_SHARE = 0.3
 #: expected share of a cell's extra starts that reach an attractor of their own (each then
@@ -151,7 +154,8 @@ def point_seconds(params: Mapping, numerics: Numerics, model: Mapping, stages: I
         free = free_copy_integrator(ly.method, params)
         c = _coefficient(model["lyapunov"][free], n_modes)
         plan = ly.block_plan()
-        reach = plan.first_periods + LONG_RECORD_REACH * (plan.max_periods - plan.first_periods)
+        share = LONG_RECORD_REACH[plan.boundary]
+        reach = plan.first_periods + share * (plan.max_periods - plan.first_periods)
         extra = max(0.0, reach - ly.n_periods)
         scale = 0.5 / ly.step_factor if free == "rk4" else 1.0
         seconds += c * (ly.n_periods + LONG_RECORD_SHARE * extra) * scale / omega
