@@ -150,8 +150,8 @@ class BlockPlan:
     boundary : one of :data:`BOUNDARIES`: each look's interval is widened to this
         group-sequential boundary (module docstring), so that a record whose rate is the
         margin gets either verdict with probability ``(1 - confidence) / 2`` over all looks
-        together; ``none``: every
-        look at ``confidence`` (more looks, more errors: docs/lyapunov.md, section 10).
+        together; ``none``: every look at ``confidence`` (more looks, more errors:
+        docs/lyapunov.md, section 10).
     """
 
     block: int = 25

@@ -64,7 +64,7 @@ LONG_RECORD_SHARE = 1.0 / 3.0
 #: with every look at 95 % (``none``) 207 periods between 100 and 425 at results version 22,
 #: 0.33 (180 at version 21, 0.25); on the O'Brien-Fleming boundary 298 at version 23, 0.61;
 #: Pocock not measured on the map, taken as O'Brien-Fleming's (on synthetic records its
-#: records are 3-20 % shorter: docs/lyapunov.md, section 10)
+#: records are 2-22 % shorter: docs/lyapunov.md, section 10)
 LONG_RECORD_REACH = {"obrien-fleming": 0.61, "pocock": 0.61, "none": 0.33}
 #: expected share of points the adaptive transient continues (default grid: 0.29)
 EXTENDED_SHARE = 0.3

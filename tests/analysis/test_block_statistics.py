@@ -157,7 +157,7 @@ def test_a_group_sequential_boundary_holds_the_stated_level(boundary) -> None:
     verdict is taken in about (1 - 0.95) / 2 = 2.5 % of the records (2000 records: standard
     error 0.35 %) and the interval a record stops at holds the true rate in at least about 95 %
     of them (repeated confidence intervals), and a torus is called positive in at most 2.5 %.
-    Every look at 95 % (``none``) fails all three (about 10 % per side, 81 %, 3.3 %)."""
+    Every look at 95 % (``none``) fails them (about 10 % per side, 81 %, 3.3 %)."""
     n = 2000
     plan = BlockPlan(max_blocks=16, boundary=boundary)
     verdicts, covered = {POSITIVE: 0, NON_POSITIVE: 0, UNDETERMINED: 0}, 0
