@@ -52,8 +52,7 @@ from functools import lru_cache
 import numpy as np
 
 __all__ = ["BlockPlan", "LLEStatistics", "POSITIVE", "NON_POSITIVE", "UNDETERMINED", "DIVERGED",
-           "BOUNDARIES", "block_statistics", "boundary_constant", "decide", "look_errors",
-           "look_levels"]
+           "BOUNDARIES", "block_statistics", "boundary_constant", "decide", "look_errors"]
 
 POSITIVE = "positive"
 NON_POSITIVE = "non-positive"
@@ -131,11 +130,12 @@ def look_errors(boundary: str, min_blocks: int, max_blocks: int, confidence: flo
     return 2.0 * ndtr(-c * _weights(boundary, looks, int(max_blocks)))
 
 
-def look_levels(boundary: str, min_blocks: int, max_blocks: int, confidence: float) -> np.ndarray:
-    """Nominal two-sided confidence level ``1 - alpha_k`` of each look (:func:`look_errors`;
-    for display: the first levels of a wide boundary round to 1)."""
-    return 1.0 - look_errors(boundary, min_blocks, max_blocks, confidence)
 
+
+def _whole_blocks(n_samples: int, burn_in: int, block: int) -> int:
+    """Whole blocks of ``block`` periods in a record of ``n_samples`` period ends after the
+    burn-in (a trailing partial block is left out)."""
+    return (n_samples - 1 - burn_in) // block
 
 @dataclass(frozen=True)
 class BlockPlan:
@@ -188,15 +188,10 @@ class BlockPlan:
         errors = look_errors(self.boundary, self.min_blocks, self.max_blocks, self.confidence)
         return float(errors[min(max(int(n_blocks), self.min_blocks), self.max_blocks) - self.min_blocks])
 
-    def look_confidence(self, n_blocks: int) -> float:
-        """``1 - look_error(n_blocks)``: the look's nominal level (rounds to 1 at the first
-        looks of a wide boundary; the interval is computed from the error)."""
-        return 1.0 - self.look_error(n_blocks)
-
     def statistics(self, log_err: np.ndarray, period: float) -> LLEStatistics:
         """:func:`block_statistics` of ``log_err`` with this plan's settings, its interval at
         the error of its look (:meth:`look_error`)."""
-        n_blocks = (np.asarray(log_err).size - 1 - self.burn_in) // self.block
+        n_blocks = _whole_blocks(np.asarray(log_err).size, self.burn_in, self.block)
         return block_statistics(log_err, period, block=self.block, burn_in=self.burn_in,
                                 confidence=self.confidence, margin=self.margin,
                                 look_error=self.look_error(n_blocks))
@@ -265,11 +260,6 @@ class LLEStatistics:
     look_error: float
 
     @property
-    def look_confidence(self) -> float:
-        """``1 - look_error`` (rounds to 1 at the first looks of a wide boundary)."""
-        return 1.0 - self.look_error
-
-    @property
     def per_period(self) -> tuple[float, float, float, float]:
         """``(mean, se, lo, hi)`` times the forcing period (growth per map iteration)."""
         T = self.period
@@ -323,7 +313,7 @@ def block_statistics(log_err: np.ndarray, period: float, *, block: int = 25, bur
         raise ValueError(f"look_error must be in (0, 1), got {look_error!r}")
     if not period > 0:
         raise ValueError(f"period must be > 0, got {period!r}")
-    n_blocks = (log_err.size - 1 - burn_in) // block
+    n_blocks = _whole_blocks(log_err.size, burn_in, block)
     if n_blocks < 2:
         raise ValueError(f"log_err holds {log_err.size - 1} periods: need burn_in + 2 blocks = "
                          f"{burn_in + 2 * block}")

@@ -17,7 +17,6 @@ from analysis.lyapunov.block_statistics import (
     boundary_constant,
     decide,
     look_errors,
-    look_levels,
 )
 from analysis.regimes import CHAOTIC, PERIODIC, QUASI_PERIODIC, classify
 from analysis.regimes import UNDETERMINED as LABEL_UNDETERMINED
@@ -102,7 +101,7 @@ def test_sequential_plan_stops_where_the_verdict_is_first_taken(boundary, lam_T)
         n = plan.burn_in + st.n_periods
         stops.add(n)
         assert st.mean == plan.statistics(le[:n + 1], T).mean
-        assert st.look_confidence == plan.look_confidence(st.blocks.size) and st.confidence == 0.95
+        assert st.look_error == plan.look_error(st.blocks.size) and st.confidence == 0.95
         assert not plan.continues(st)
         for m in range(plan.first_periods, n, plan.block):  # undetermined before
             assert plan.statistics(le[:m + 1], T).verdict == UNDETERMINED
@@ -134,16 +133,17 @@ def test_uncorrected_looks_inflate_the_error_rates() -> None:
     assert at_margin[POSITIVE] / n > 0.05 and at_margin[NON_POSITIVE] / n > 0.05, at_margin
 
 
-def test_look_levels() -> None:
-    """One look is the plain interval; Pocock's looks share one level, O'Brien-Fleming's widen
-    the first looks most; both are stricter than the stated level at every look."""
-    assert look_levels("pocock", 5, 5, 0.95) == pytest.approx([0.95], abs=1e-12)
-    assert look_levels("obrien-fleming", 5, 5, 0.95) == pytest.approx([0.95], abs=1e-12)
-    assert np.all(look_levels("none", 3, 16, 0.95) == 0.95)
-    pocock = look_levels("pocock", 3, 16, 0.95)
-    obf = look_levels("obrien-fleming", 3, 16, 0.95)
-    assert pocock.size == obf.size == 14 and np.ptp(pocock) == 0 and pocock[0] > 0.95
-    assert np.all(np.diff(obf) < 0) and obf[-1] > 0.95 and obf[0] > pocock[0] > obf[-1]
+def test_look_errors() -> None:
+    """One look is the plain interval; Pocock's looks share one error, O'Brien-Fleming's are
+    smallest (widest intervals) at the first looks; both are stricter than the stated level at
+    every look."""
+    assert look_errors("pocock", 5, 5, 0.95) == pytest.approx([0.05], abs=1e-12)
+    assert look_errors("obrien-fleming", 5, 5, 0.95) == pytest.approx([0.05], abs=1e-12)
+    assert np.all(look_errors("none", 3, 16, 0.95) == pytest.approx(0.05, abs=1e-15))
+    pocock = look_errors("pocock", 3, 16, 0.95)
+    obf = look_errors("obrien-fleming", 3, 16, 0.95)
+    assert pocock.size == obf.size == 14 and np.ptp(pocock) == 0 and pocock[0] < 0.05
+    assert np.all(np.diff(obf) > 0) and obf[-1] < 0.05 and obf[0] < pocock[0] < obf[-1]
     assert boundary_constant("pocock", 3, 16, 0.95) > boundary_constant("pocock", 3, 8, 0.95)
     with pytest.raises(ValueError, match="boundary"):
         boundary_constant("none", 3, 16, 0.95)
@@ -178,7 +178,7 @@ def test_a_wide_boundary_keeps_its_first_looks_apart_from_one() -> None:
     the last's."""
     plan = BlockPlan(block=5, burn_in=5, min_blocks=2, max_blocks=40)
     errors = look_errors(plan.boundary, plan.min_blocks, plan.max_blocks, plan.confidence)
-    assert errors[0] < 1e-16 and look_levels(plan.boundary, 2, 40, 0.95)[0] == 1.0
+    assert errors[0] < 1e-16 and 1.0 - errors[0] == 1.0
     assert np.all(np.diff(errors) > 0) and errors[-1] < 0.05
     le = record(0.2, plan.max_periods, 1.0, 0)
     first = plan.statistics(le[:plan.first_periods + 1], T)
