@@ -51,7 +51,8 @@ def continuation_sweeps(points: Sequence[dict], numerics: Numerics | dict, *, ax
     period), ``lle_verdict``, ``reason``, ``n_transient_used``, ``slipped``, ``poincare_w_tip``
     (the tip's stroboscopic samples), ``poincare_state`` (the full state's), ``diverged``, and
     the integrators as in the regime table: ``method`` (of the reference run) and
-    ``lle_free_copy`` (of the Lyapunov stage's free copy; both name a Zeno fallback).
+    ``lle_free_copy`` (of the Lyapunov stage's free copy; both name a Zeno fallback), and the
+    point's ``lock_ratio`` (:func:`analysis.pipeline.table.lock_ratios`).
     """
     from analysis.pipeline.stages import (
         classify_points,
@@ -60,6 +61,7 @@ def continuation_sweeps(points: Sequence[dict], numerics: Numerics | dict, *, ax
         records_table,
         simulate_runs,
     )
+    from analysis.pipeline.table import lock_ratios
     from beamsim.pattern_store import PatternStore
     from beamsim.simulate import prepare_point
 
@@ -110,6 +112,7 @@ def continuation_sweeps(points: Sequence[dict], numerics: Numerics | dict, *, ax
                      "poincare_state": np.asarray(rec["poincare_state"], dtype=float).tolist()})
     out = pd.DataFrame(rows)
     out["period"] = out["period"].astype("Int64")
+    out["lock_ratio"] = lock_ratios(points)[out["k"].to_numpy()]
     return out
 
 

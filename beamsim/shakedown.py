@@ -27,10 +27,26 @@ bound is a bound, not a value the motion returns to.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from beamsim.point import PreparedPoint
 from beamsim.two_layer import first_order_matrix
+
+__all__ = ["LockedOrbit", "lock_ratio", "locked_orbit", "stuck_traction_bound"]
+
+
+def _check_elastic_stick(pp: PreparedPoint, what: str) -> None:
+    if pp.friction.law != "stick-slip":
+        raise ValueError(f"{what} needs the elastic stick (law stick-slip), got {pp.friction.law!r}")
+
+
+def _harmonic(pp: PreparedPoint) -> np.ndarray:
+    """``Q``: the complex amplitude of the stuck beam's forced response to ``f0 cos(omega t)``,
+    ``(K_stuck - omega^2 M + i omega C) Q = f0 g``."""
+    m, w = pp.model, pp.omega
+    return np.linalg.solve(m.K_stuck - w * w * m.M + 1j * w * m.C, pp.f0 * m.g.astype(complex))
 
 
 def stuck_traction_bound(pp: PreparedPoint, state: np.ndarray, t0: float = 0.0) -> np.ndarray:
@@ -50,9 +66,7 @@ def stuck_traction_bound(pp: PreparedPoint, state: np.ndarray, t0: float = 0.0) 
     ratio : array of ``n_quad``; below 1 at every element means that no element can slip again.
         ``inf`` where ``tau_s,j = 0`` (no stick possible there).
     """
-    if pp.friction.law != "stick-slip":
-        raise ValueError(f"stuck_traction_bound needs the elastic stick (law stick-slip), got "
-                         f"{pp.friction.law!r}")
+    _check_elastic_stick(pp, "stuck_traction_bound")
     m = pp.model
     n, nq = m.n, m.n_quad
     x = np.asarray(state, dtype=float)
@@ -62,7 +76,7 @@ def stuck_traction_bound(pp: PreparedPoint, state: np.ndarray, t0: float = 0.0) 
     kt, S, w = m.geom.k_t, m.S, pp.omega
     # forced response: q_c (mean load and the frozen sliders), Q (the harmonic)
     q_c = np.linalg.solve(m.K_stuck, -pp.f0 * m.g + kt * (S.T @ (m.wq * z)))
-    Q = np.linalg.solve(m.K_stuck - w * w * m.M + 1j * w * m.C, pp.f0 * m.g.astype(complex))
+    Q = _harmonic(pp)
     rot = Q * np.exp(1j * w * t0)
     e0 = np.concatenate([q - (q_c + rot.real), v - (1j * w * rot).real])
     # free vibration in the eigenvectors of the first-order stuck matrix
@@ -72,3 +86,61 @@ def stuck_traction_bound(pp: PreparedPoint, state: np.ndarray, t0: float = 0.0) 
     forced = np.abs(kt * (S @ q_c - z)) + kt * np.abs(S @ Q)
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(pp.tau_s > 0, (forced + free) / np.where(pp.tau_s > 0, pp.tau_s, 1.0), np.inf)
+
+
+class LockedOrbit(NamedTuple):
+    """The locked orbit of a point (:func:`locked_orbit`).
+
+    state : its state at ``t = 0`` (a period boundary) in the kernels' layout
+        ``(q, v, z, mode)``, every ``mode`` 0 (stuck): a start for the integrators
+        (:func:`beamsim.simulate.state_params`).
+    ratio : per interface point, its traction amplitude over the static limit,
+        ``k_t |S_j Q| / tau_s,j`` (``inf`` where ``tau_s,j = 0``).
+    """
+
+    state: np.ndarray
+    ratio: np.ndarray
+
+
+def locked_orbit(pp: PreparedPoint) -> LockedOrbit:
+    """The everywhere-stuck period-1 motion with the smallest tractions, and their ratio to the
+    slip limit.
+
+    With every element stuck, the sliders ``z`` frozen, the motion's tail is the forced
+    response ``q_c + Re(Q e^{i omega t})`` (plus free vibration in the modes that the interface
+    dashpot does not damp, which load no element: ``C psi = 0`` needs ``S psi = 0`` where the
+    dashpot acts at every point).  Its traction at element ``j`` is
+    ``k_t (S_j q_c - z_j) + k_t Re(S_j Q e^{i omega t})``: the harmonic part is fixed by the
+    load, the mean part by the locked slips.  Sliders at ``z = S q_c`` with ``K q_c = -f0 g``
+    (the structure without the interface carries the mean load, so ``K_stuck q_c = -f0 g +
+    k_t S^T W z`` holds) make every mean traction zero, so every element's peak traction is its
+    harmonic amplitude ``k_t |S_j Q|``, the least any everywhere-stuck motion can have.
+
+    Hence the lock-up limit: where ``ratio`` is below 1 at every element, this motion never
+    slips (:func:`stuck_traction_bound` of its state is ``ratio``: no free vibration), and it
+    attracts the stuck states near it; a point labelled anything else by a run from rest holds
+    a second attractor, the locked one.  Where some element's ratio exceeds 1, no motion stays
+    stuck for ever once the interface-loading modes are damped (its tail is the forced
+    response, whose traction swings by more than the limit).
+
+    Parameters
+    ----------
+    pp : a prepared point of the elastic stick-slip law.
+    """
+    _check_elastic_stick(pp, "locked_orbit")
+    m, w = pp.model, pp.omega
+    Q = _harmonic(pp)
+    q_c = np.linalg.solve(m.K, -pp.f0 * m.g)
+    z = m.S @ q_c
+    state = np.concatenate([q_c + Q.real, (1j * w * Q).real, z, np.zeros(m.n_quad)])
+    amp = m.geom.k_t * np.abs(m.S @ Q)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(pp.tau_s > 0, amp / np.where(pp.tau_s > 0, pp.tau_s, 1.0), np.inf)
+    return LockedOrbit(state=state, ratio=ratio)
+
+
+def lock_ratio(pp: PreparedPoint) -> float:
+    """The largest ratio of :func:`locked_orbit`: below 1, a locked (everywhere-stuck)
+    period-1 motion exists at this point; above 1, none does.  It is proportional to the load
+    amplitude ``f0``, so ``f0 / lock_ratio`` is the point's lock-up load."""
+    return float(np.max(locked_orbit(pp).ratio))

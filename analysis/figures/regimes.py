@@ -109,7 +109,8 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
     that never slipped, and a white bar one that slipped at first and then stayed stuck at
     every element over its whole record (``stick_fraction`` 1: the interface does no friction
     work there, docs/classification.md rule 3); each marker is in the legend, with its count,
-    only where the map has such cells."""
+    only where the map has such cells.  With a ``lock_ratio`` column, a dashed line marks the
+    lock-up limit (:func:`_lock_up_limit`)."""
     axes = list(grid["axes"])
     keys = table.apply(_label_key, axis=1)
     present = [k for k in LABEL_COLOURS if (keys == k).any()]
@@ -140,6 +141,8 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
                 ax.plot(locked[xa], locked[ya], "_", ms=5, color="white", mew=1.0, ls="")
                 handles.append(plt.Line2D([], [], marker="_", ms=5, mew=1.0, ls="", color="0.3",
                                           label=f"every element stuck over the record ({len(locked)})"))
+        if "lock_ratio" in table.columns:
+            _lock_up_limit(ax, table, keys, xs, ys, xa, ya, handles)
         if "neighbours_same" in table.columns:  # labels finer than the grid
             from analysis.pipeline.neighbours import supported
 
@@ -169,6 +172,8 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
             if len(other):
                 handles.append(plt.Line2D([], [], marker="o", ls="", mfc="none", color="0.3",
                                           label="other attractors (other starts)"))
+        if "lock_ratio" in table.columns:
+            _lock_up_limit(ax, table, keys, None, None, xa, None, handles)
         if _is_log(grid, xa):
             ax.set_xscale("log")
         ax.set_xlabel(_axis_label(xa))
@@ -177,6 +182,43 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
     ax.set_title(_title("Regimes", grid_name, table, axes, evidence), fontsize=9)
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
+
+
+def lock_up_crossings(x: np.ndarray, ratio: np.ndarray) -> list[float]:
+    """Where a line's ``lock_ratio`` crosses 1 (linear interpolation between neighbouring points
+    in ``x`` order; pairs with a non-finite ratio are skipped)."""
+    order = np.argsort(x, kind="stable")
+    x, r = np.asarray(x, float)[order], np.asarray(ratio, float)[order]
+    out = []
+    for i in np.flatnonzero(np.diff(np.sign(r - 1.0)) != 0):
+        if np.isfinite(r[i]) and np.isfinite(r[i + 1]):
+            out.append(float(x[i] + (1.0 - r[i]) * (x[i + 1] - x[i]) / (r[i + 1] - r[i])))
+    return out
+
+
+def _lock_up_limit(ax, table: pd.DataFrame, keys: pd.Series, xs: np.ndarray | None, ys: np.ndarray | None,
+                   xa: str, ya: str | None, handles: list) -> None:
+    """Draw where the table's ``lock_ratio`` (:func:`beamsim.shakedown.lock_ratio`) crosses 1:
+    a dashed contour on a 2-D map, dashed vertical lines on a 1-D diagram.  On the side where it
+    is below 1 a locked, everywhere-stuck period-1 motion coexists with whatever the run from
+    rest reached; the legend counts the cells there with another label (a longer or otherwise
+    changed run may end locked)."""
+    ratio = table["lock_ratio"].astype(float).to_numpy()
+    below = ratio < 1.0
+    if not (below.any() and (ratio >= 1.0).any()):
+        return
+    other = int((below & (keys != "periodic").to_numpy()).sum())  # "periodic": period 1
+    if ys is None:
+        for x in lock_up_crossings(table[xa].to_numpy(float), ratio):
+            ax.axvline(x, color="black", ls="--", lw=1.0)
+    else:
+        grid_r = np.full((ys.size, xs.size), np.nan)
+        for (_, row), value in zip(table.iterrows(), ratio):
+            grid_r[np.searchsorted(ys, row[ya]), np.searchsorted(xs, row[xa])] = value
+        ax.contour(xs, ys, grid_r, levels=[1.0], colors="black", linestyles="--", linewidths=1.2)
+    handles.append(plt.Line2D([], [], color="black", ls="--", lw=1.2,
+                              label=f"lock-up limit (lock ratio 1): where below, a locked period-1\n"
+                                    f"state coexists ({other} cells there with another label)"))
 
 
 def _hatch_multistable(ax, attractors: pd.DataFrame, xs: np.ndarray, ys: np.ndarray, xa: str, ya: str,

@@ -11,6 +11,13 @@ re-runs cells of a finished map (a seeded sample stratified by label, or every c
 * ``perturbations`` seeded random states (:func:`analysis.multistability.perturbed_starts`,
   seeded by the config's seed and the cell's grid index, so independent of the table's order
   and of the number of cores),
+* with ``locked``, the locked orbit (:func:`beamsim.shakedown.locked_orbit`: every element
+  stuck, the slips where the mean tractions vanish) where the cell's load is below its lock-up
+  limit (``lock_ratio`` below 1) and the map's own run slips (``stick_fraction`` below 1), so
+  that the locked attractor the linear analysis proves is found, grouped and labelled by the
+  same runs as any other.  (Locked orbits form a family, one per set of locked slips; where
+  the map's run is itself locked, another member of the family would count as a second
+  attractor that differs only in the slips locked in, so none is started there.)
 
 with the map's own numerics and stages (adaptive transient, classifier; the per-point store
 caches every run under an id that contains its initial state).  A run that diverged, or whose
@@ -38,11 +45,14 @@ import pandas as pd
 from analysis.pipeline.config import Numerics, as_numerics
 from analysis.regimes import CHAOTIC, PERIODIC, QUASI_PERIODIC
 
-__all__ = ["MultistabilitySettings", "cell_attractors", "cell_starts", "cell_summary", "summary_line",
-           "write_attractor_table"]
+__all__ = ["MultistabilitySettings", "cell_attractors", "cell_starts", "cell_summary", "locked_start",
+           "summary_line", "write_attractor_table"]
 
 #: name of the map's own start
 REST = "rest"
+
+#: name of the start on the locked orbit (:func:`locked_start`)
+LOCKED = "locked"
 
 #: labels that are verdicts on a regime (an ``undetermined`` attractor differs from none)
 VERDICTS = (PERIODIC, QUASI_PERIODIC, CHAOTIC)
@@ -59,6 +69,8 @@ class MultistabilitySettings:
         along each axis).
     perturbations : seeded random starts per cell (0: none).
     amplitude : their size in units of the point's forced-response scale.
+    locked : start a cell below its lock-up limit from its locked orbit
+        (:func:`beamsim.shakedown.locked_orbit`; elastic stick only).
     seed : seed of the sample and of the random starts (combined with the cell's grid index).
     """
 
@@ -66,12 +78,13 @@ class MultistabilitySettings:
     neighbours: bool = True
     perturbations: int = 1
     amplitude: float = 0.3
+    locked: bool = True
     seed: int = 0
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any] | None) -> MultistabilitySettings:
         d = dict(d or {})
-        allowed = ["amplitude", "neighbours", "perturbations", "sample", "seed"]
+        allowed = ["amplitude", "locked", "neighbours", "perturbations", "sample", "seed"]
         unknown = set(d) - set(allowed)
         if unknown:
             raise ValueError(f"multistability: unknown key(s) {sorted(unknown)}; allowed: {allowed}")
@@ -79,8 +92,9 @@ class MultistabilitySettings:
         if not (out.sample == "all" or (isinstance(out.sample, int) and not isinstance(out.sample, bool)
                                         and out.sample >= 0)):
             raise ValueError(f"multistability.sample = {out.sample!r}; allowed: an integer >= 0 or 'all'")
-        if not isinstance(out.neighbours, bool):
-            raise ValueError(f"multistability.neighbours = {out.neighbours!r}; allowed: true or false")
+        for key in ("neighbours", "locked"):
+            if not isinstance(getattr(out, key), bool):
+                raise ValueError(f"multistability.{key} = {getattr(out, key)!r}; allowed: true or false")
         if not (isinstance(out.perturbations, int) and not isinstance(out.perturbations, bool)
                 and 0 <= out.perturbations <= 16):
             raise ValueError(f"multistability.perturbations = {out.perturbations!r}; "
@@ -94,7 +108,7 @@ class MultistabilitySettings:
     @property
     def active(self) -> bool:
         """Whether any cell is run from any start besides rest."""
-        return self.sample != 0 and (self.neighbours or self.perturbations > 0)
+        return self.sample != 0 and (self.neighbours or self.perturbations > 0 or self.locked)
 
     def n_cells(self, n_points: int) -> int:
         """Cells run from the other starts in a grid of ``n_points`` (0 when not active)."""
@@ -104,11 +118,12 @@ class MultistabilitySettings:
 
     def as_dict(self) -> dict:
         return {"sample": self.sample, "neighbours": self.neighbours, "perturbations": self.perturbations,
-                "amplitude": self.amplitude, "seed": self.seed}
+                "amplitude": self.amplitude, "locked": self.locked, "seed": self.seed}
 
     def starts_per_cell(self, n_axes: int) -> int:
-        """The most extra starts of one cell (an edge cell has fewer neighbours)."""
-        return (2 * n_axes if self.neighbours else 0) + self.perturbations
+        """The most extra starts of one cell (an edge cell has fewer neighbours; a cell above
+        its lock-up limit has no locked start)."""
+        return (2 * n_axes if self.neighbours else 0) + self.perturbations + int(self.locked)
 
 
 def cell_starts(table: pd.DataFrame, final_states: Mapping[str, Sequence[float]],
@@ -118,7 +133,9 @@ def cell_starts(table: pd.DataFrame, final_states: Mapping[str, Sequence[float]]
     (``point_id``, ``params_json``, ``index_0``, ... columns), in a fixed order: the neighbours'
     end states (``final_states``: point id -> the full end state of its start from rest),
     ``<axis>-`` from the lower and ``<axis>+`` from the higher neighbour along each axis in axis
-    order, then ``perturbed<k>``.
+    order, then ``perturbed<k>``, then ``locked`` (with ``settings.locked``, where the map's
+    row says that its run slips, ``stick_fraction`` below 1, the law is the elastic stick and
+    the load is below the lock-up limit: :func:`locked_start`).
     A neighbour whose end state is not finite or has another size (``n_modes`` as an axis) is
     left out.  Returns point id -> ``[(name, initial-state parameters), ...]``."""
     import json
@@ -155,8 +172,31 @@ def cell_starts(table: pd.DataFrame, final_states: Mapping[str, Sequence[float]]
         for k, s in enumerate(perturbed_starts(params, settings.perturbations, seed=[settings.seed, *index],
                                                amplitude=settings.amplitude)):
             starts.append((f"perturbed{k}", s))
+        slips = float(row.get("stick_fraction", np.nan)) < 1.0  # NaN (unknown): no
+        if settings.locked and slips and (locked := locked_start(params)):
+            starts.append((LOCKED, locked))
         out[pid] = starts
     return out
+
+
+def locked_start(params: dict) -> dict:
+    """The initial-state parameters of a point's locked orbit
+    (:func:`beamsim.shakedown.locked_orbit`) where its law is the elastic stick and the orbit
+    never slips (``lock_ratio`` below 1); ``{}`` otherwise."""
+    from analysis.continuation import state_params
+    from beamsim.shakedown import locked_orbit
+    from beamsim.simulate import prepare_point
+
+    pp = prepare_point(**params)
+    if pp.friction.law != "stick-slip":
+        return {}
+    try:
+        orbit = locked_orbit(pp)
+    except np.linalg.LinAlgError:
+        return {}
+    if not np.max(orbit.ratio) < 1.0:
+        return {}
+    return state_params(orbit.state, pp.model.n, pp.model.n_quad)
 
 
 def _num(value) -> float:

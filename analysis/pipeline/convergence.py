@@ -50,7 +50,8 @@ from analysis.pipeline.config import Numerics, as_numerics
 from analysis.pipeline.grid import canonical_json, point_id
 
 __all__ = ["CONTROLS", "ConvergenceSettings", "LOAD_SHIFT", "REFINEMENTS", "convergence_runs",
-           "convergence_summary", "flagged", "held_interval", "label_text", "refine", "run_metadata",
+           "convergence_summary", "flagged", "held_interval", "label_text", "onto_locked", "refine",
+           "run_metadata",
            "same_label", "sample_points", "summary_line", "write_convergence_table"]
 
 #: the relative change of the load amplitude of the controls ``load_up`` / ``load_down``
@@ -249,7 +250,9 @@ def convergence_runs(table: pd.DataFrame, refinement: str, numerics: Numerics | 
     the map's label: :func:`analysis.pipeline.neighbours.supported`; NA for a table without the
     neighbour columns), ``label``/``period``/``lle_T``/``lle_lo_T``/
     ``lle_hi_T`` of the map and ``refined_*`` of the refined run (``lambda_1 T`` per forcing
-    period; NaN where not measured), ``refined_reason``, ``refined_point_id`` and ``holds``
+    period; NaN where not measured), ``refined_reason``, ``refined_point_id``,
+    ``refined_stick_fraction``, ``locked`` (the map's ``lock_ratio`` below 1: a locked period-1
+    motion exists beside the map's; NA where the table has no ratio) and ``holds``
     (:func:`same_label`: the same regime and, for a periodic orbit, the same period).
     """
     from analysis.pipeline.neighbours import supported
@@ -273,7 +276,7 @@ def convergence_runs(table: pd.DataFrame, refinement: str, numerics: Numerics | 
         lyap = lyapunov_points(pts, sim, nm, store_root, threads)
         cls = classify_points(sim, lyap, lle_threshold=lle_resolution(nm))
         merged = cls.merge(lyap[["point_id", "lle_mean", "lle_lo", "lle_hi"]], on="point_id").merge(
-            sim[["point_id", "omega"]], on="point_id")
+            sim[["point_id", "omega", "stick_fraction"]], on="point_id")
         for _, m in merged.iterrows():
             labels[m["point_id"]] = m
     rows = []
@@ -291,12 +294,16 @@ def convergence_runs(table: pd.DataFrame, refinement: str, numerics: Numerics | 
                 "refined_lle_lo_T": _num(m["lle_lo"]) * t_ref,
                 "refined_lle_hi_T": _num(m["lle_hi"]) * t_ref,
                 "refined_reason": m["reason"], "refined_point_id": r["point_id"],
+                "refined_stick_fraction": _num(m["stick_fraction"]),
+                "locked": (pd.NA if pd.isna(base.get("lock_ratio", np.nan))
+                           else bool(base["lock_ratio"] < 1.0)),
                 "holds": same_label(base["label"], base["period"], m["label"], m["period"])}
         rows.append(row)
     out = pd.DataFrame(rows)
     for c in ("period", "refined_period"):
         out[c] = out[c].astype("Int64")
     out["supported"] = out["supported"].astype("boolean")
+    out["locked"] = out["locked"].astype("boolean")
     return out
 
 
@@ -330,6 +337,23 @@ def flagged(runs: pd.DataFrame, robust: pd.Series | None) -> np.ndarray:
     return out
 
 
+def onto_locked(runs: pd.DataFrame) -> np.ndarray:
+    """Per run row: the label moved onto the locked state that the map shows beside it: the
+    map's point has a locked period-1 motion (column ``locked``: its ``lock_ratio`` below 1,
+    :func:`beamsim.shakedown.lock_ratio`), its own label is not periodic-1, and the refined
+    run ended there (periodic-1 with every element stuck, ``refined_stick_fraction`` 1).  A
+    longer or otherwise changed run that falls into a coexisting attractor the map names is
+    multistability, not a label that failed to converge.  False where the columns are
+    missing."""
+    if "locked" not in runs or "refined_stick_fraction" not in runs:
+        return np.zeros(len(runs), bool)
+    map_p1 = [label_text(a, p) == "periodic-1" for a, p in zip(runs["label"], runs["period"])]
+    ref_p1 = [label_text(a, p) == "periodic-1" for a, p in zip(runs["refined_label"], runs["refined_period"])]
+    stuck = runs["refined_stick_fraction"].astype(float).fillna(0.0).to_numpy() >= 1.0
+    return (runs["locked"].astype("boolean").fillna(False).to_numpy(bool) & ~np.asarray(map_p1, bool)
+            & np.asarray(ref_p1, bool) & stuck)
+
+
 def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
     """Per refinement (first-appearance order): ``n`` sampled points, ``held`` (labels equal),
     ``fraction`` (held / n) with its exact 95 % interval ``fraction_lo``, ``fraction_hi``
@@ -341,8 +365,10 @@ def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
     ``held_robust`` (of those, the labels that hold under this refinement); NA otherwise; and
     for every refinement, when ``runs`` has the column ``supported``, ``n_supported`` (sampled
     points whose label a grid neighbour shares) and ``held_supported`` (of those, the labels
-    that hold); NA otherwise; ``unflagged`` (refinements only, NA for a control): the labels
-    that moved although the map flags nothing about them (:func:`flagged`), the count a
+    that hold); NA otherwise; ``locked_moves`` (refinements only, NA for a control): the labels
+    that moved onto the locked state the map shows beside them (:func:`onto_locked`); and
+    ``unflagged`` (refinements only, NA for a control): the labels that moved although the map
+    flags nothing about them (:func:`flagged`) and not onto that locked state, the count a
     referee re-running those cells would find unexplained."""
     controls = runs[runs["refinement"].isin(CONTROLS)]
     robust = controls.groupby("point_id")["holds"].all() if len(controls) else None
@@ -361,7 +387,9 @@ def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
         if robust is not None and ref not in CONTROLS:
             is_robust = g["point_id"].map(robust).fillna(False).to_numpy(bool)
             n_robust, held_robust = int(is_robust.sum()), int((holds & is_robust).sum())
-        unflagged = pd.NA if ref in CONTROLS else int((~holds & ~flagged(g, robust)).sum())
+        locked = ~holds & onto_locked(g)
+        locked_moves = pd.NA if ref in CONTROLS else int(locked.sum())
+        unflagged = pd.NA if ref in CONTROLS else int((~holds & ~locked & ~flagged(g, robust)).sum())
         n_sup = held_sup = pd.NA
         if "supported" in g and g["supported"].notna().any():
             sup = g["supported"].fillna(False).to_numpy(bool)
@@ -373,9 +401,10 @@ def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
                      "contradicted": int((decided & ~holds).sum()),
                      "flips": "; ".join(f"{k}: {v}" for k, v in flips.items()),
                      "n_robust": n_robust, "held_robust": held_robust,
-                     "n_supported": n_sup, "held_supported": held_sup, "unflagged": unflagged})
+                     "n_supported": n_sup, "held_supported": held_sup, "locked_moves": locked_moves,
+                     "unflagged": unflagged})
     out = pd.DataFrame(rows)
-    for c in ("n_robust", "held_robust", "n_supported", "held_supported", "unflagged"):
+    for c in ("n_robust", "held_robust", "n_supported", "held_supported", "locked_moves", "unflagged"):
         out[c] = out[c].astype("Int64")
     return out
 
@@ -386,7 +415,9 @@ def summary_line(summary: pd.DataFrame) -> str:
     followed, when the summary has controls, by ``; of the 9/20 whose label holds under the
     load controls: step / 2 9/9, ...``, when it has the neighbour support, by ``; of the
     12/20 whose label a grid neighbour shares: step / 2 12/12, ...``, and by the refinements'
-    ``unflagged`` counts: ``; moved without a flag (...): step / 2 0, ...``."""
+    ``unflagged`` counts: ``; moved without a flag (...): step / 2 0, ...``, and, where a
+    refinement moved labels onto the locked state the map shows (``locked_moves``), by
+    ``; onto the coexisting locked state: windows x 2 2``."""
     if summary is None or summary.empty:
         return "labels not checked under refinement (convergence.sample = 0)"
     parts = [f"{r['what']} {r['held']}/{r['n']} [{r['fraction_lo']:.2f}-{r['fraction_hi']:.2f}]"
@@ -409,6 +440,10 @@ def summary_line(summary: pd.DataFrame) -> str:
         line += ("; moved without a flag (no verdict, no neighbour shares it, moves with the "
                  "load): "
                  + ", ".join(f"{r['what']} {int(r['unflagged'])}" for _, r in unf.iterrows()))
+    onto = summary[summary["locked_moves"].fillna(0) > 0] if "locked_moves" in summary else summary.iloc[:0]
+    if len(onto):
+        line += "; onto the coexisting locked state: " + ", ".join(
+            f"{r['what']} {int(r['locked_moves'])}" for _, r in onto.iterrows())
     return line
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import numpy as np
 import pandas as pd
 
 from analysis.pipeline.atomic import atomic_output
@@ -13,7 +14,7 @@ from analysis.pipeline.grid import canonical_json
 from analysis.pipeline.neighbours import neighbour_support
 from analysis.pipeline.stages import poincare_array
 
-__all__ = ["TABLE_COLUMNS", "assemble_regime_table", "index_columns", "package_versions",
+__all__ = ["TABLE_COLUMNS", "assemble_regime_table", "index_columns", "lock_ratios", "package_versions",
            "read_regime_metadata", "write_regime_table"]
 
 #: columns of the regime table besides the model parameters (docs/pipeline.md)
@@ -34,10 +35,30 @@ def index_columns(table: pd.DataFrame) -> list[str]:
     return sorted((c for c in table.columns if c.startswith("index_")), key=lambda c: int(c[6:]))
 
 
+def lock_ratios(params: Sequence[dict]) -> np.ndarray:
+    """Per point (parameter dicts), its lock-up ratio :func:`beamsim.shakedown.lock_ratio`:
+    below 1, a locked (everywhere-stuck) period-1 motion exists beside whatever the run from
+    rest reached; NaN for a law without an elastic stick (rigid stick, full slip, Stribeck) and
+    where the stuck beam's stiffness or resonance matrix is singular."""
+    from beamsim.point import prepare_point
+    from beamsim.shakedown import lock_ratio
+
+    out = np.full(len(params), np.nan)
+    for i, p in enumerate(params):
+        pp = prepare_point(**p)
+        if pp.friction.law == "stick-slip":
+            try:
+                out[i] = lock_ratio(pp)
+            except np.linalg.LinAlgError:
+                pass
+    return out
+
+
 def assemble_regime_table(grid_points: Sequence[dict], simulated: pd.DataFrame, lyapunov: pd.DataFrame,
                           classified: pd.DataFrame) -> pd.DataFrame:
     """Stage 4: one row per grid point in grid order (first axis slowest), parameters first;
-    last the neighbour support of each label (``n_neighbours``, ``neighbours_same``:
+    then the lock-up ratio (``lock_ratio``: :func:`lock_ratios`); last the neighbour support of
+    each label (``n_neighbours``, ``neighbours_same``:
     :func:`analysis.pipeline.neighbours.neighbour_support`)."""
     by_id = (classified.merge(lyapunov, on="point_id", how="left", suffixes=("", "_lle"))
              .merge(simulated, on="point_id", how="left", suffixes=("", "_sim"))
@@ -56,6 +77,7 @@ def assemble_regime_table(grid_points: Sequence[dict], simulated: pd.DataFrame, 
         rows.append(row)
     table = pd.DataFrame(rows)
     table["period"] = table["period"].astype("Int64")
+    table["lock_ratio"] = lock_ratios([p["params"] for p in grid_points])
     # how many grid neighbours share each label (analysis.pipeline.neighbours)
     return table.join(neighbour_support(table))
 

@@ -38,13 +38,16 @@ def test_settings_defaults_are_the_shipped_config_and_bad_values_are_refused():
     assert {k: v["default"] for k, v in props.items()} == MultistabilitySettings().as_dict()
     off = MultistabilitySettings.from_dict({"sample": 0})
     assert not off.active and off.n_cells(400) == 0
-    assert not MultistabilitySettings(neighbours=False, perturbations=0).active
+    assert not MultistabilitySettings(neighbours=False, perturbations=0, locked=False).active
+    assert MultistabilitySettings(neighbours=False, perturbations=0).active  # the locked start
     assert MultistabilitySettings(sample="all").n_cells(400) == 400
     assert MultistabilitySettings(sample=40).n_cells(9) == 9
-    assert MultistabilitySettings(perturbations=2).starts_per_cell(2) == 6
+    assert MultistabilitySettings(perturbations=2).starts_per_cell(2) == 7
+    assert MultistabilitySettings(perturbations=2, locked=False).starts_per_cell(2) == 6
     for bad, match in (({"sample": -1}, "sample"), ({"sample": "some"}, "sample"),
                        ({"perturbations": 17}, "perturbations"), ({"amplitude": 0.0}, "amplitude"),
                        ({"neighbours": "yes"}, "neighbours"), ({"seed": -2}, "seed"),
+                       ({"locked": 1}, "locked"),
                        ({"starts": 3}, "unknown")):
         with pytest.raises(ValueError, match=match):
             MultistabilitySettings.from_dict(bad)
@@ -93,6 +96,35 @@ def test_starts_are_the_neighbours_end_states_in_order_and_seeded_perturbations(
     assert not np.array_equal(by_name["perturbed0"]["q0"], by_name["perturbed1"]["q0"])
     none = cell_starts(table, finals, MultistabilitySettings(neighbours=False, perturbations=0), axes)
     assert all(v == [] for v in none.values())
+
+
+def test_a_cell_below_its_lock_up_limit_whose_run_slips_also_starts_from_its_locked_orbit():
+    """The locked start: last, the locked orbit's state (every element stuck, the slips of
+    :func:`beamsim.shakedown.locked_orbit`), only where the map's run slips (``stick_fraction``
+    below 1; unknown counts as not), the load is below the lock-up limit and ``locked`` is on."""
+    from beamsim.shakedown import lock_ratio, locked_orbit
+    from beamsim.simulate import prepare_point
+
+    table = _grid_table(LINEAR, [0.2, 5.0], [2.0])
+    pp = [prepare_point(**json.loads(p)) for p in table["params_json"]]
+    assert lock_ratio(pp[0]) < 1.0 < lock_ratio(pp[1])
+    finals = {}
+    settings = MultistabilitySettings(neighbours=False, perturbations=0)
+    axes = ["Omega", "f0_rel"]
+    slipping = table.assign(stick_fraction=[0.9, 0.9])
+    starts = cell_starts(slipping, finals, settings, axes)
+    low, high = (starts[pid] for pid in table["point_id"])
+    assert [n for n, _ in low] == ["locked"] and high == []  # above the limit: no locked orbit
+    x = locked_orbit(pp[0]).state
+    n, nq = pp[0].model.n, pp[0].model.n_quad
+    got = low[0][1]
+    assert np.array_equal(np.concatenate([got["q0"], got["v0"], got["z0"], got["mode0"]]), x)
+    assert np.all(got["mode0"] == 0.0) and got["z0"].size == nq and got["q0"].size == n
+    locked_map = table.assign(stick_fraction=[1.0, 0.9])  # the map's run is locked itself
+    assert all(v == [] for v in cell_starts(locked_map, finals, settings, axes).values())
+    assert all(v == [] for v in cell_starts(table, finals, settings, axes).values())  # unknown
+    off = MultistabilitySettings(neighbours=False, perturbations=0, locked=False)
+    assert all(v == [] for v in cell_starts(slipping, finals, off, axes).values())
 
 
 @pytest.fixture(scope="module")

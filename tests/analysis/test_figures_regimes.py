@@ -112,3 +112,28 @@ def test_stuck_and_never_slipped_markers_are_counted_and_only_shown_when_present
     table["stick_fraction"] = 0.4
     legend = _legend_of(plot_regimes, table, "g", {"axes": axes}, str(tmp_path / "b.png"), dpi=40)
     assert not [t for t in legend if "never slipped" in t or "stuck over the record" in t]
+
+
+@pytest.mark.parametrize("axes", [{"Omega": [1.0, 2.0, 4.0], "f0_rel": [1.0, 1.5, 2.0, 3.0]},
+                                  {"f0_rel": [1.0, 1.5, 2.0, 3.0, 4.0]}])
+def test_the_lock_up_limit_is_drawn_where_the_ratio_crosses_one_and_counts_the_other_labels(tmp_path,
+                                                                                            axes) -> None:
+    """The lock ratio is proportional to the load: with ``lock_ratio = f0_rel / 1.8`` the limit
+    lies at ``f0_rel`` 1.8, between the grid's 1.5 and 2.0 (interpolated exactly, since the
+    ratio is linear there); the legend counts the cells below it whose label is not periodic-1;
+    a map entirely on one side of the limit has no such line or entry."""
+    from analysis.figures.regimes import lock_up_crossings
+
+    table = _table(axes)
+    table["lock_ratio"] = table["f0_rel"] / 1.8
+    x = np.array([1.0, 1.5, 2.0, 3.0])
+    assert lock_up_crossings(x[::-1], x[::-1] / 1.8) == pytest.approx([1.8], rel=1e-12)
+    assert lock_up_crossings(x, np.array([0.5, np.nan, 2.0, 3.0])) == []
+    below = table["f0_rel"] < 1.8
+    other = int((below & ~((table["label"] == "periodic") & (table["period"] == 1))).sum())
+    legend = _legend_of(plot_regimes, table, "g", {"axes": axes}, str(tmp_path / "a.png"), dpi=40)
+    entry = [t for t in legend if t.startswith("lock-up limit")]
+    assert len(entry) == 1 and f"({other} cells there with another label)" in entry[0], legend
+    table["lock_ratio"] = 0.5
+    legend = _legend_of(plot_regimes, table, "g", {"axes": axes}, str(tmp_path / "b.png"), dpi=40)
+    assert not [t for t in legend if t.startswith("lock-up limit")]

@@ -75,3 +75,35 @@ def test_perturbed_starts_are_seeded_and_stay_in_the_slow_modes():
             modal = phi.T @ model.M @ x  # M-orthonormal modes: the modal coordinates
             assert np.abs(modal[k:]).max() < 1e-9 * np.abs(modal[:k]).max()
             assert np.linalg.norm(x) > 0
+
+
+#: a chaotic cell of the two-mode default grid (results version 23: lambda_1 T 0.11, interval
+#: above the margin, stick fraction 0.93) whose load is below its lock-up limit (lock_ratio
+#: 0.88, beamsim.shakedown)
+BELOW_LOCK_UP = CELL | {"Omega": 1.84770349, "f0_rel": 1.49623441}
+
+
+def test_beam_cell_below_its_lock_up_limit_holds_the_locked_attractor_beside_the_one_from_rest():
+    """The start from rest and the locked start (:func:`analysis.pipeline.cell_attractors.
+    locked_start`) through the pipeline's stages: the locked start stays on the locked orbit,
+    periodic-1 with a contracting exponent and every element stuck, while the start from rest
+    reaches a slipping attractor elsewhere: two attractors, as the linear analysis says (a
+    locked state proven to exist does not make the map's run end there)."""
+    from analysis.pipeline.cell_attractors import locked_start
+    from beamsim.shakedown import lock_ratio
+
+    assert lock_ratio(prepare_point(**BELOW_LOCK_UP)) < 1.0
+    locked = locked_start(BELOW_LOCK_UP)
+    assert locked
+    nm = Numerics()
+    table = point_attractors(BELOW_LOCK_UP, [{}, locked], nm, threads=2)
+    shown = table[["starts", "label", "period", "lle_T", "lle_lo_T", "lle_hi_T"]]
+    assert len(table) == 2 and [list(s) for s in table["starts"]] == [[0], [1]], shown
+    lock_row = table.iloc[1]
+    assert lock_row["label"] == "periodic" and lock_row["period"] == 1 and lock_row["lle_T"] < 0, shown
+    rest = np.asarray(table["poincare_state"].iloc[0])
+    assert np.ptp(rest, axis=0).max() > 1e3 * np.ptp(np.asarray(lock_row["poincare_state"]), axis=0).max()
+    rest_run, locked_run = simulate_runs([{"point_id": "rest", "params": BELOW_LOCK_UP},
+                                          {"point_id": "locked", "params": BELOW_LOCK_UP | locked}], nm, 2)
+    assert rest_run["stick_fraction"] < 1.0  # the start from rest slips over its record
+    assert locked_run["stick_fraction"] == 1.0 and not locked_run["slipped"]

@@ -6,8 +6,8 @@ import pytest
 from scipy.linalg import expm
 
 from beamsim.point import prepare_point
-from beamsim.shakedown import stuck_traction_bound
-from beamsim.simulate import simulate
+from beamsim.shakedown import lock_ratio, locked_orbit, stuck_traction_bound
+from beamsim.simulate import simulate, state_params
 
 #: one mode, the default grid's friction, below the static slip onset: the start-up slips, the
 #: record is stuck (tests/analysis/test_pipeline_stages.py uses the same point)
@@ -150,6 +150,55 @@ def test_an_undamped_stuck_record_above_the_bound_slips_much_later():
     assert r.slipped and r.t_first_slip > 1000 * 2 * np.pi / pp.omega
 
 
+def test_the_locked_orbit_is_a_stuck_period_one_motion_whose_peak_traction_is_its_ratio():
+    """The locked orbit's state under the exact stuck flow (matrix exponential, not the formula
+    that built it): after one period it is back where it started (period 1, no free vibration
+    to the rounding), its largest traction over the period is its ratio (to the sampling's
+    1e-5) and never above it, and its mean traction is zero (sliders at the structure's
+    mean deflection).  ``stuck_traction_bound`` of the state is the ratio; the ratio is linear
+    in the load."""
+    pp = prepare_point(**POINT)
+    orbit = locked_orbit(pp)
+    x = orbit.state
+    n, nq = pp.model.n, pp.model.n_quad
+    assert np.all(x[2 * n + nq:] == 0.0)
+    np.testing.assert_allclose(stuck_traction_bound(pp, x), orbit.ratio, rtol=1e-7)
+    seen = np.zeros(nq)
+    mean = np.zeros(nq)
+    per = 4096
+    m = pp.model
+    for k, (ratio, y, shift) in enumerate(_stuck_flow(pp, x, 1, per_period=per)):
+        seen = np.maximum(seen, ratio)
+        mean += m.geom.k_t * (m.S @ (y[:n] + shift) - x[2 * n:2 * n + nq]) / pp.tau_s / per
+    np.testing.assert_allclose(y[:n] + shift, x[:n], rtol=0, atol=1e-9 * np.abs(x[:n]).max())
+    assert np.all(seen <= orbit.ratio * (1 + 1e-9)) and np.all(seen >= orbit.ratio * (1 - 1e-5))
+    assert np.abs(mean).max() < 1e-9 * orbit.ratio.max()
+    assert lock_ratio(prepare_point(**(POINT | {"f0_rel": 2 * POINT["f0_rel"]}))) == \
+        pytest.approx(2 * lock_ratio(pp), rel=1e-12)
+
+
+@pytest.mark.parametrize("method", ["expo", "rk4"])
+def test_the_lock_up_limit_is_sharp_for_the_integrators(method):
+    """The integrators (their own stick/slip logic) from the locked orbit at 0.97 and 1.03 of
+    the lock-up load: below it, 100 periods without a slip on one period-1 orbit; above it, an
+    element slips in the first period (the locked orbit is the everywhere-stuck motion with the
+    smallest tractions, so above the limit no stuck motion is left)."""
+    r1 = lock_ratio(prepare_point(**POINT))
+    for target, stays in ((0.97, True), (1.03, False)):
+        point = POINT | {"f0_rel": POINT["f0_rel"] * target / r1}
+        pp = prepare_point(**point)
+        orbit = locked_orbit(pp)
+        assert orbit.ratio.max() == pytest.approx(target, rel=1e-12)
+        r = simulate(**state_params(point, orbit.state, pp.model.n), n_transient=0,
+                     n_record=100 if stays else 2, method=method)
+        if stays:
+            assert not r.slipped and r.stick_fraction == 1.0
+            xs = r.poincare_state
+            assert np.ptp(xs, axis=0).max() < 1e-8 * np.abs(xs).max()
+        else:
+            assert r.slipped and r.t_first_slip < 2 * np.pi / pp.omega
+
+
 def test_refuses_other_laws_and_wrong_states(stuck_end):
     pp, x = stuck_end
     with pytest.raises(ValueError, match="state must have"):
@@ -157,6 +206,8 @@ def test_refuses_other_laws_and_wrong_states(stuck_end):
     rigid = prepare_point(**(POINT | {"law": "rigid-stick", "mu_s": 0.3}))
     with pytest.raises(ValueError, match="elastic stick"):
         stuck_traction_bound(rigid, x)
+    with pytest.raises(ValueError, match="elastic stick"):
+        lock_ratio(rigid)
 
 
 def test_the_pipeline_reads_a_failed_decomposition_as_not_proven(stuck_end, monkeypatch):

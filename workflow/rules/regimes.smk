@@ -87,6 +87,7 @@ rule regime_table:
         simulate=lambda wc: chunk_files(wc.grid, "simulate"),
         lyapunov=lambda wc: chunk_files(wc.grid, "lyapunov"),
         classified=lambda wc: chunk_files(wc.grid, "classify"),
+        modes=grid_mode_files,
     output:
         table="results/regimes/{grid}.parquet",
     params:

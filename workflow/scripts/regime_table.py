@@ -6,6 +6,7 @@ sys.stderr = open(snakemake.log[0], "w")
 
 import pandas as pd
 
+from analysis.pipeline.stages import register_cached_modes
 from analysis.pipeline.table import assemble_regime_table, write_regime_table
 
 
@@ -14,6 +15,7 @@ def read(files) -> pd.DataFrame:
 
 
 inp = snakemake.input
+register_cached_modes(inp.modes)  # the lock-up ratio of each point (beamsim.shakedown)
 table = assemble_regime_table(snakemake.params.points, read(inp.simulate), read(inp.lyapunov),
                               read(inp.classified))
 write_regime_table(table, snakemake.output.table, grid_name=snakemake.wildcards.grid,
