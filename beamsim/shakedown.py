@@ -34,7 +34,7 @@ import numpy as np
 from beamsim.point import PreparedPoint
 from beamsim.two_layer import first_order_matrix
 
-__all__ = ["LockedOrbit", "lock_ratio", "locked_orbit", "stuck_traction_bound"]
+__all__ = ["LockedOrbit", "lock_ratio", "locked_orbit", "shakedown_ratio", "stuck_traction_bound"]
 
 
 def _check_elastic_stick(pp: PreparedPoint, what: str) -> None:
@@ -96,32 +96,45 @@ class LockedOrbit(NamedTuple):
         (:func:`beamsim.simulate.state_params`).
     ratio : per interface point, its traction amplitude over the static limit,
         ``k_t |S_j Q| / tau_s,j`` (``inf`` where ``tau_s,j = 0``).
+    kinetic_ratio : the same amplitude over the kinetic limit, ``k_t |S_j Q| / tau_k,j``
+        (``inf`` where ``tau_k,j = 0``).
     """
 
     state: np.ndarray
     ratio: np.ndarray
+    kinetic_ratio: np.ndarray
+
+
+def _over(amp: np.ndarray, limit: np.ndarray) -> np.ndarray:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(limit > 0, amp / np.where(limit > 0, limit, 1.0), np.inf)
 
 
 def locked_orbit(pp: PreparedPoint) -> LockedOrbit:
-    """The everywhere-stuck period-1 motion with the smallest tractions, and their ratio to the
-    slip limit.
+    """The everywhere-stuck period-1 motion with the smallest tractions, and their ratios to the
+    static and kinetic slip limits (docs/model.md, section 7).
 
-    With every element stuck, the sliders ``z`` frozen, the motion's tail is the forced
-    response ``q_c + Re(Q e^{i omega t})`` (plus free vibration in the modes that the interface
-    dashpot does not damp, which load no element: ``C psi = 0`` needs ``S psi = 0`` where the
-    dashpot acts at every point).  Its traction at element ``j`` is
+    With every element stuck and the sliders ``z`` frozen, the motion's tail is the forced
+    response ``q_c + Re(Q e^{i omega t})``, plus free vibration in the modes that no damping
+    reaches (with the interface dashpot, ``c_t > 0``, those load no element: ``C psi = 0``
+    needs ``S psi = 0``).  Its traction at element ``j`` is
     ``k_t (S_j q_c - z_j) + k_t Re(S_j Q e^{i omega t})``: the harmonic part is fixed by the
     load, the mean part by the locked slips.  Sliders at ``z = S q_c`` with ``K q_c = -f0 g``
     (the structure without the interface carries the mean load, so ``K_stuck q_c = -f0 g +
     k_t S^T W z`` holds) make every mean traction zero, so every element's peak traction is its
     harmonic amplitude ``k_t |S_j Q|``, the least any everywhere-stuck motion can have.
 
-    Hence the lock-up limit: where ``ratio`` is below 1 at every element, this motion never
-    slips (:func:`stuck_traction_bound` of its state is ``ratio``: no free vibration), and it
-    attracts the stuck states near it; a point labelled anything else by a run from rest holds
-    a second attractor, the locked one.  Where some element's ratio exceeds 1, no motion stays
-    stuck for ever once the interface-loading modes are damped (its tail is the forced
-    response, whose traction swings by more than the limit).
+    Hence two limits.  **Lock-up** (``ratio`` below 1 at every element): this motion never
+    slips (:func:`stuck_traction_bound` of its state is ``ratio``: no free vibration), so a
+    locked period-1 motion exists.  Locked orbits form a family, one per set of locked slips;
+    with damping the stuck states near one converge to the family at the stuck beam's slowest
+    decay, and along the slips they are neutral.  Above 1 at some element, no motion stays
+    stuck at every element for ever once every mode is damped (its tail is the forced response,
+    whose traction there swings by more than the limit).  **Shakedown** (``kinetic_ratio``
+    below 1 at every element): every motion, from any state, slips a finite total distance
+    (an energy argument of Melan-Koiter-Ceradini type: the energy of the difference from the
+    locked orbit falls by at least ``(1 - kinetic_ratio) tau_k,j`` per unit slip of element
+    ``j``), so no attractor slips.
 
     Parameters
     ----------
@@ -134,9 +147,7 @@ def locked_orbit(pp: PreparedPoint) -> LockedOrbit:
     z = m.S @ q_c
     state = np.concatenate([q_c + Q.real, (1j * w * Q).real, z, np.zeros(m.n_quad)])
     amp = m.geom.k_t * np.abs(m.S @ Q)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(pp.tau_s > 0, amp / np.where(pp.tau_s > 0, pp.tau_s, 1.0), np.inf)
-    return LockedOrbit(state=state, ratio=ratio)
+    return LockedOrbit(state=state, ratio=_over(amp, pp.tau_s), kinetic_ratio=_over(amp, pp.tau_k))
 
 
 def lock_ratio(pp: PreparedPoint) -> float:
@@ -144,3 +155,10 @@ def lock_ratio(pp: PreparedPoint) -> float:
     period-1 motion exists at this point; above 1, none does.  It is proportional to the load
     amplitude ``f0``, so ``f0 / lock_ratio`` is the point's lock-up load."""
     return float(np.max(locked_orbit(pp).ratio))
+
+
+def shakedown_ratio(pp: PreparedPoint) -> float:
+    """The largest kinetic ratio of :func:`locked_orbit` (``lock_ratio * mu_s / mu_k``): below
+    1, every motion of this point shakes down (its total slip is finite, from any state), so no
+    record that slips is on an attractor."""
+    return float(np.max(locked_orbit(pp).kinetic_ratio))

@@ -13,10 +13,25 @@ import pandas as pd
 from matplotlib.colors import ListedColormap
 from matplotlib.patches import Patch
 
-from analysis.figures.regimes import LABEL_COLOURS, _axis_label, _edges, label_key, lock_up_crossings
+from analysis.figures.regimes import (
+    LABEL_COLOURS,
+    LIMIT_STYLE,
+    _axis_label,
+    _edges,
+    label_key,
+    limit_ratios,
+    lock_up_crossings,
+)
 
 #: colour of each sweep direction
 BRANCH_COLOURS = {"up": "#1f77b4", "down": "#d62728"}
+
+
+#: the legend of the limits on a line (:func:`analysis.figures.regimes.limit_ratios`)
+LINE_LIMIT_TEXT = {"lock-up": "lock-up limit: on the side where the lock ratio is below 1 a locked "
+                              "period-1 state exists",
+                   "shakedown": "shakedown limit: on the side where the kinetic ratio is below 1 "
+                                "every motion stops slipping"}
 
 
 def plot_continuation(table: pd.DataFrame, axis: str, line: dict, name: str, path: str,
@@ -72,13 +87,12 @@ def plot_continuation(table: pd.DataFrame, axis: str, line: dict, name: str, pat
     ax2.axhline(margin, color="k", ls=":", lw=0.8, label=f"margin {margin:g}")
     ax2.set_ylabel(r"$\lambda_1 T$ (per forcing period)")
     if "lock_ratio" in table.columns:
-        one = table.drop_duplicates("k")  # the ratio is the point's, the same on both branches
-        crossings = lock_up_crossings(one[axis].to_numpy(float), one["lock_ratio"].to_numpy(float))
-        for i, x in enumerate(crossings):
-            for ax in (ax0, ax1, ax2):
-                ax.axvline(x, color="black", ls="--", lw=1.0,
-                           label="lock-up limit (lock ratio 1): where below, a locked period-1 "
-                                 "state coexists" if ax is ax2 and i == 0 else None)
+        one = table.drop_duplicates("k")  # the ratios are the point's, the same on both branches
+        for name, ratio in limit_ratios(one).items():
+            for i, x in enumerate(lock_up_crossings(one[axis].to_numpy(float), ratio)):
+                for ax in (ax0, ax1, ax2):
+                    ax.axvline(x, color="black", ls=LIMIT_STYLE[name]["ls"], lw=1.0,
+                               label=LINE_LIMIT_TEXT[name] if ax is ax2 and i == 0 else None)
     ax2.legend(fontsize=7)
     if log:
         ax2.set_xscale("log")

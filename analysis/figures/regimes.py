@@ -110,7 +110,7 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
     every element over its whole record (``stick_fraction`` 1: the interface does no friction
     work there, docs/classification.md rule 3); each marker is in the legend, with its count,
     only where the map has such cells.  With a ``lock_ratio`` column, a dashed line marks the
-    lock-up limit (:func:`_lock_up_limit`)."""
+    lock-up limit and a dotted one the shakedown limit (:func:`_lock_up_limit`)."""
     axes = list(grid["axes"])
     keys = table.apply(_label_key, axis=1)
     present = [k for k in LABEL_COLOURS if (keys == k).any()]
@@ -185,40 +185,69 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
 
 
 def lock_up_crossings(x: np.ndarray, ratio: np.ndarray) -> list[float]:
-    """Where a line's ``lock_ratio`` crosses 1 (linear interpolation between neighbouring points
-    in ``x`` order; pairs with a non-finite ratio are skipped)."""
+    """Where a line's ratio crosses 1 (linear interpolation between neighbouring points in
+    ``x`` order; pairs with a non-finite ratio are skipped; a point at exactly 1 counts once)."""
     order = np.argsort(x, kind="stable")
     x, r = np.asarray(x, float)[order], np.asarray(ratio, float)[order]
-    out = []
+    out: list[float] = []
     for i in np.flatnonzero(np.diff(np.sign(r - 1.0)) != 0):
         if np.isfinite(r[i]) and np.isfinite(r[i + 1]):
-            out.append(float(x[i] + (1.0 - r[i]) * (x[i + 1] - x[i]) / (r[i + 1] - r[i])))
+            at = float(x[i] + (1.0 - r[i]) * (x[i + 1] - x[i]) / (r[i + 1] - r[i]))
+            if not out or at != out[-1]:
+                out.append(at)
     return out
+
+
+def limit_ratios(table: pd.DataFrame) -> dict[str, np.ndarray]:
+    """The table's ratios to its two limits (:func:`beamsim.shakedown.locked_orbit`): ``lock-up``
+    (``lock_ratio``) and ``shakedown`` (``lock_ratio * mu_s / mu_k``, the kinetic ratio; only
+    where the table has ``mu_s`` and ``mu_k``)."""
+    lock = table["lock_ratio"].astype(float).to_numpy()
+    out = {"lock-up": lock}
+    if "mu_s" in table.columns and "mu_k" in table.columns:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            mu_s, mu_k = (table[c].astype(float).to_numpy() for c in ("mu_s", "mu_k"))
+            out["shakedown"] = lock * mu_s / mu_k
+    return out
+
+
+#: how each limit is drawn and what its legend says
+LIMIT_STYLE = {
+    "lock-up": dict(ls="--", text="lock-up limit (lock ratio 1): on its side below 1 a locked\n"
+                                  "period-1 state exists ({n} cells there with another label)"),
+    "shakedown": dict(ls=":", text="shakedown limit (kinetic ratio 1): on its side below 1 every\n"
+                                   "motion stops slipping ({n} cells there with another label)"),
+}
 
 
 def _lock_up_limit(ax, table: pd.DataFrame, keys: pd.Series, xs: np.ndarray | None, ys: np.ndarray | None,
                    xa: str, ya: str | None, handles: list) -> None:
-    """Draw where the table's ``lock_ratio`` (:func:`beamsim.shakedown.lock_ratio`) crosses 1:
-    a dashed contour on a 2-D map, dashed vertical lines on a 1-D diagram.  On the side where it
-    is below 1 a locked, everywhere-stuck period-1 motion coexists with whatever the run from
-    rest reached; the legend counts the cells there with another label (a longer or otherwise
-    changed run may end locked)."""
-    ratio = table["lock_ratio"].astype(float).to_numpy()
-    below = ratio < 1.0
-    if not (below.any() and (ratio >= 1.0).any()):
-        return
-    other = int((below & (keys != "periodic").to_numpy()).sum())  # "periodic": period 1
-    if ys is None:
-        for x in lock_up_crossings(table[xa].to_numpy(float), ratio):
-            ax.axvline(x, color="black", ls="--", lw=1.0)
-    else:
-        grid_r = np.full((ys.size, xs.size), np.nan)
-        for (_, row), value in zip(table.iterrows(), ratio):
-            grid_r[np.searchsorted(ys, row[ya]), np.searchsorted(xs, row[xa])] = value
-        ax.contour(xs, ys, grid_r, levels=[1.0], colors="black", linestyles="--", linewidths=1.2)
-    handles.append(plt.Line2D([], [], color="black", ls="--", lw=1.2,
-                              label=f"lock-up limit (lock ratio 1): where below, a locked period-1\n"
-                                    f"state coexists ({other} cells there with another label)"))
+    """Draw where the table's ratios to the lock-up and shakedown limits
+    (:func:`limit_ratios`) cross 1: a contour on a 2-D map, vertical lines on a 1-D diagram,
+    dashed and dotted.  Below the lock-up limit a locked, everywhere-stuck period-1 motion
+    coexists with whatever the run from rest reached; below the shakedown limit every motion
+    ends there.  The legend counts the cells below each limit whose label is not periodic-1;
+    a limit the map lies entirely below gets its legend entry without a line."""
+    other_label = (keys != "periodic").to_numpy()  # "periodic": period 1
+    for name, ratio in limit_ratios(table).items():
+        below = ratio < 1.0
+        if not below.any():
+            continue
+        style = LIMIT_STYLE[name]
+        if (ratio >= 1.0).any():
+            if ys is None:
+                for x in lock_up_crossings(table[xa].to_numpy(float), ratio):
+                    ax.axvline(x, color="black", ls=style["ls"], lw=1.0)
+            else:
+                grid_r = np.full((ys.size, xs.size), np.nan)
+                for (_, row), value in zip(table.iterrows(), ratio):
+                    grid_r[np.searchsorted(ys, row[ya]), np.searchsorted(xs, row[xa])] = value
+                ax.contour(xs, ys, grid_r, levels=[1.0], colors="black", linestyles=style["ls"],
+                           linewidths=1.2)
+        text = style["text"].format(n=int((below & other_label).sum()))
+        if not (ratio >= 1.0).any():
+            text += "; every cell is below it"
+        handles.append(plt.Line2D([], [], color="black", ls=style["ls"], lw=1.2, label=text))
 
 
 def _hatch_multistable(ax, attractors: pd.DataFrame, xs: np.ndarray, ys: np.ndarray, xa: str, ya: str,

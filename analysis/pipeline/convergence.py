@@ -337,21 +337,27 @@ def flagged(runs: pd.DataFrame, robust: pd.Series | None) -> np.ndarray:
     return out
 
 
+#: the refinements that keep the model (numerics only): the map's lock-up limit is theirs too
+SAME_MODEL = ("step", "windows")
+
+
 def onto_locked(runs: pd.DataFrame) -> np.ndarray:
-    """Per run row: the label moved onto the locked state that the map shows beside it: the
-    map's point has a locked period-1 motion (column ``locked``: its ``lock_ratio`` below 1,
-    :func:`beamsim.shakedown.lock_ratio`), its own label is not periodic-1, and the refined
-    run ended there (periodic-1 with every element stuck, ``refined_stick_fraction`` 1).  A
-    longer or otherwise changed run that falls into a coexisting attractor the map names is
-    multistability, not a label that failed to converge.  False where the columns are
-    missing."""
+    """Per run row of a refinement that keeps the model (:data:`SAME_MODEL`): the refined run
+    ended locked below the map's lock-up limit: the map's point has a locked period-1 motion
+    (column ``locked``: its ``lock_ratio`` below 1, :func:`beamsim.shakedown.lock_ratio`; the
+    map marks the cell by the dashed limit), its own label is not periodic-1, and the refined
+    run ended periodic-1 with every element stuck (``refined_stick_fraction`` 1).  The map
+    says why such a move can happen, but not that it will: where the refined run is the map's
+    run continued for longer (the doubled windows), the map's label there may be a transient
+    that ends locked.  False where the columns are missing."""
     if "locked" not in runs or "refined_stick_fraction" not in runs:
         return np.zeros(len(runs), bool)
     map_p1 = [label_text(a, p) == "periodic-1" for a, p in zip(runs["label"], runs["period"])]
     ref_p1 = [label_text(a, p) == "periodic-1" for a, p in zip(runs["refined_label"], runs["refined_period"])]
     stuck = runs["refined_stick_fraction"].astype(float).fillna(0.0).to_numpy() >= 1.0
-    return (runs["locked"].astype("boolean").fillna(False).to_numpy(bool) & ~np.asarray(map_p1, bool)
-            & np.asarray(ref_p1, bool) & stuck)
+    same_model = runs["refinement"].isin(SAME_MODEL).to_numpy(bool)
+    return (same_model & runs["locked"].astype("boolean").fillna(False).to_numpy(bool)
+            & ~np.asarray(map_p1, bool) & np.asarray(ref_p1, bool) & stuck)
 
 
 def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
@@ -366,10 +372,10 @@ def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
     for every refinement, when ``runs`` has the column ``supported``, ``n_supported`` (sampled
     points whose label a grid neighbour shares) and ``held_supported`` (of those, the labels
     that hold); NA otherwise; ``locked_moves`` (refinements only, NA for a control): the labels
-    that moved onto the locked state the map shows beside them (:func:`onto_locked`); and
+    whose refined run ended locked below the map's lock-up limit (:func:`onto_locked`); and
     ``unflagged`` (refinements only, NA for a control): the labels that moved although the map
-    flags nothing about them (:func:`flagged`) and not onto that locked state, the count a
-    referee re-running those cells would find unexplained."""
+    flags nothing about them (:func:`flagged`) and that did not end locked below the limit,
+    the count a referee re-running those cells would find no mark for."""
     controls = runs[runs["refinement"].isin(CONTROLS)]
     robust = controls.groupby("point_id")["holds"].all() if len(controls) else None
     rows = []
@@ -416,8 +422,8 @@ def summary_line(summary: pd.DataFrame) -> str:
     load controls: step / 2 9/9, ...``, when it has the neighbour support, by ``; of the
     12/20 whose label a grid neighbour shares: step / 2 12/12, ...``, and by the refinements'
     ``unflagged`` counts: ``; moved without a flag (...): step / 2 0, ...``, and, where a
-    refinement moved labels onto the locked state the map shows (``locked_moves``), by
-    ``; onto the coexisting locked state: windows x 2 2``."""
+    refinement's runs ended locked below the map's lock-up limit (``locked_moves``), by
+    ``; ended locked below the lock-up limit (...): windows x 2 3``."""
     if summary is None or summary.empty:
         return "labels not checked under refinement (convergence.sample = 0)"
     parts = [f"{r['what']} {r['held']}/{r['n']} [{r['fraction_lo']:.2f}-{r['fraction_hi']:.2f}]"
@@ -442,8 +448,8 @@ def summary_line(summary: pd.DataFrame) -> str:
                  + ", ".join(f"{r['what']} {int(r['unflagged'])}" for _, r in unf.iterrows()))
     onto = summary[summary["locked_moves"].fillna(0) > 0] if "locked_moves" in summary else summary.iloc[:0]
     if len(onto):
-        line += "; onto the coexisting locked state: " + ", ".join(
-            f"{r['what']} {int(r['locked_moves'])}" for _, r in onto.iterrows())
+        line += ("; ended locked below the lock-up limit (the map's label there may be a transient): "
+                 + ", ".join(f"{r['what']} {int(r['locked_moves'])}" for _, r in onto.iterrows()))
     return line
 
 

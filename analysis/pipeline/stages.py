@@ -156,6 +156,11 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
     transient) while the transient stays within ``n_transient_max``; the record kept is the
     last one, ``n_transient_used`` says after how many periods it starts.
 
+    Shakedown: a record that slips (``stick_fraction`` below 1) at a point below its shakedown
+    limit (:func:`locked_ratios`: every motion there slips a finite total distance,
+    :func:`beamsim.shakedown.locked_orbit`) is a transient too, continued in the same way; the
+    record carries the point's ``shakedown_ratio``.
+
     Continuation check (``nm.continuation_check``): a record that passes those tests and starts
     within ``n_transient_max`` periods is continued by ``n_record`` periods (no transient); the
     continued record is kept, and when it differs from the first one
@@ -188,6 +193,7 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
     used = [nm.n_transient] * len(points)
     t_start = [0.0] * len(points)  # time of the kept run's start
     first_slip = [(r.slipped, r.t_first_slip) for r in results]
+    kinetic = [locked_ratios(p["params"])[1] for p in points]  # below 1: every motion shakes down
     checked = [not nm.continuation_check] * len(points)  # the record passed a continuation check
     why_continued = [""] * len(points)
     done = [False] * len(points)  # next_run said None: the point's record is final
@@ -198,7 +204,7 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
         x = r.poincare_state
         if r.diverged or not np.all(np.isfinite(x)):
             return None
-        if transient_reason(x) is not None:
+        if transient_reason(x) is not None or (r.stick_fraction < 1.0 and kinetic[i] < 1.0):
             fits = used[i] + nm.n_record + nm.n_transient <= nm.n_transient_max
             return "transient" if fits else None
         return None if checked[i] or used[i] > nm.n_transient_max else "check"
@@ -240,29 +246,32 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
                  len(redo), [zeno[i] for i in redo])
         rk4 = replace(nm, method="rk4", steps_per_period=None)
         fallback = dict(zip(redo, simulate_runs([points[i] for i in redo], rk4, threads)))
-    out = []
-    for i, (r, n_tr, t_run, (slipped, t_slip), why) in enumerate(
-            zip(results, used, t_start, first_slip, why_continued)):
-        if i in fallback:
-            out.append(fallback[i] | {"method": ZENO_FALLBACK})
-            continue
-        energy = r.energy
-        w_in = float(energy[-1, 0] - energy[0, 0])
-        residual = r.energy_residual[-1] - r.energy_residual[0]
-        diss = np.diff(energy[:, 1])
-        out.append({
-            "poincare_state": r.poincare_state, "poincare_tip": r.poincare_tip,
-            "final_state": r.final_state,
-            "f0": r.f0, "f_cr": r.f_cr, "omega": r.omega, "Omega": r.Omega, "lam_f": r.lam_f,
-            "steps_per_period": r.steps_per_period, "method": r.method,
-            "n_transient_used": int(n_tr), "continuation_reason": why,
-            "diverged": bool(r.diverged), "t_diverged": t_run + r.t_diverged,
-            "slipped": bool(slipped), "t_first_slip": t_slip,
-            "stick_fraction": r.stick_fraction,
-            "diss_per_cycle": float(np.mean(diss)) if np.isfinite(diss).all() else np.nan,
-            "energy_residual_rel": float(abs(residual) / abs(w_in)) if w_in != 0 else np.nan,
-        })
-    return out
+    return [fallback[i] | {"method": ZENO_FALLBACK} if i in fallback else
+            _simulate_record(r, n_tr, t_run, first, why, kin)
+            for i, (r, n_tr, t_run, first, why, kin) in enumerate(
+                zip(results, used, t_start, first_slip, why_continued, kinetic))]
+
+
+def _simulate_record(r, n_transient_used: int, t_run: float, first_slip: tuple[bool, float], why: str,
+                     shakedown: float) -> dict:
+    """The simulate stage's record of a point's kept run ``r`` (a ``SimResult``, started at time
+    ``t_run``) after ``n_transient_used`` periods (:func:`simulate_runs`)."""
+    energy = r.energy
+    w_in = float(energy[-1, 0] - energy[0, 0])
+    residual = r.energy_residual[-1] - r.energy_residual[0]
+    diss = np.diff(energy[:, 1])
+    return {
+        "poincare_state": r.poincare_state, "poincare_tip": r.poincare_tip,
+        "final_state": r.final_state,
+        "f0": r.f0, "f_cr": r.f_cr, "omega": r.omega, "Omega": r.Omega, "lam_f": r.lam_f,
+        "steps_per_period": r.steps_per_period, "method": r.method,
+        "n_transient_used": int(n_transient_used), "continuation_reason": why,
+        "diverged": bool(r.diverged), "t_diverged": t_run + r.t_diverged,
+        "slipped": bool(first_slip[0]), "t_first_slip": first_slip[1],
+        "stick_fraction": r.stick_fraction, "shakedown_ratio": shakedown,
+        "diss_per_cycle": float(np.mean(diss)) if np.isfinite(diss).all() else np.nan,
+        "energy_residual_rel": float(abs(residual) / abs(w_in)) if w_in != 0 else np.nan,
+    }
 
 
 def _check_reason(record, continued, law: str) -> str | None:
@@ -322,15 +331,39 @@ def simulate_points(points: Sequence[dict], numerics: Numerics | dict, store_roo
     return records_table(points, recs)
 
 
+def locked_ratios(params: dict) -> tuple[float, float]:
+    """A point's ``(lock_ratio, shakedown_ratio)`` (:func:`beamsim.shakedown.lock_ratio`,
+    :func:`~beamsim.shakedown.shakedown_ratio`): below 1, a locked period-1 motion exists /
+    every motion shakes down.  NaN for a law without an elastic stick (rigid stick, full slip,
+    Stribeck) and where the stuck beam's stiffness or resonance matrix is singular."""
+    from beamsim.point import prepare_point
+    from beamsim.shakedown import locked_orbit
+
+    pp = prepare_point(**params)
+    if pp.friction.law != "stick-slip":
+        return np.nan, np.nan
+    try:
+        orbit = locked_orbit(pp)
+    except np.linalg.LinAlgError:
+        return np.nan, np.nan
+    return float(np.max(orbit.ratio)), float(np.max(orbit.kinetic_ratio))
+
+
 def unsettled_reason(sim_row: pd.Series | dict) -> str | None:
     """Why a simulate record (finite, not diverged) is still a transient, or ``None``: the
-    record's own tests (:func:`analysis.regimes.transient_reason`), then the last continuation
-    check (``continuation_reason``, :func:`simulate_runs`)."""
+    record's own tests (:func:`analysis.regimes.transient_reason`), a record that slips below
+    the point's shakedown limit (``shakedown_ratio`` below 1: :func:`simulate_runs`), then the
+    last continuation check (``continuation_reason``, :func:`simulate_runs`)."""
     from analysis.regimes import transient_reason
 
     why = transient_reason(poincare_array(sim_row["poincare_state"]))
     if why is not None:
         return why
+    kinetic = float(sim_row.get("shakedown_ratio", np.nan))
+    if kinetic < 1.0 and float(sim_row.get("stick_fraction", 1.0)) < 1.0:
+        return (f"the record slips below the shakedown limit (shakedown ratio {kinetic:.3f}): every "
+                "motion there slips a finite total distance, so a slipping record is a transient "
+                "(beamsim.shakedown)")
     why = sim_row.get("continuation_reason")
     return why if isinstance(why, str) and why else None
 
@@ -642,8 +675,9 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame,
     exponent (every stuck mode damped) is periodic of period 1 whatever its Poincare samples
     show: the motion is the forced response plus a free vibration that decays onto it
     (:func:`stuck_record_reason`), provided no element can slip again (``stuck_bound`` below 1,
-    or not available); where a later slip is not excluded (``stuck_bound >= 1``) it is
-    ``undetermined`` (:func:`stuck_unproven_reason`).
+    or not available, or the point below its shakedown limit: ``shakedown_ratio`` below 1, where
+    every motion's total slip is finite); where a later slip is not excluded (``stuck_bound >= 1``
+    above the shakedown limit) it is ``undetermined`` (:func:`stuck_unproven_reason`).
     """
     from analysis.regimes import DIVERGED, PERIODIC, UNDETERMINED, UNSETTLED, classify
 
@@ -674,25 +708,35 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame,
                        n_clusters=ind.get("n_clusters", np.nan))
             if have and lle.loc[pid].get("lle_verdict") == LINEAR_VERDICT and lam < 0.0:
                 bound = float(lle.loc[pid].get("stuck_bound", np.nan))
-                if bound >= 1.0:
+                kinetic = float(sim.get("shakedown_ratio", np.nan))
+                if bound >= 1.0 and not kinetic < 1.0:
                     row.update(label=UNDETERMINED, period=None,
                                reason=stuck_unproven_reason(bound, res.reason))
                 else:
-                    row.update(label=PERIODIC, period=1, reason=stuck_record_reason(lam, res.reason, bound))
+                    row.update(label=PERIODIC, period=1,
+                               reason=stuck_record_reason(lam, res.reason, bound, kinetic))
         rows.append(row)
     out = pd.DataFrame(rows)
     out["period"] = out["period"].astype("Int64")
     return out
 
 
-def stuck_record_reason(lle_per_period: float, record_reason: str, bound: float = np.nan) -> str:
+def stuck_record_reason(lle_per_period: float, record_reason: str, bound: float = np.nan,
+                        shakedown: float = np.nan) -> str:
     """Reason of the label periodic-1 for a record in which every element stays stuck, with
     ``lambda_1 T = lle_per_period < 0`` (:func:`stuck_lle`), the record's :func:`stuck_bound`
-    (below 1; ``nan``: not available, the rigid stick) and the classifier's reading of the
-    record itself (``record_reason``)."""
-    proof = ("" if np.isnan(bound) else
-             f"; no element can slip again: its traction stays below {bound:.3f} of its slip "
-             f"limit for ever (beamsim.shakedown)")
+    (below 1; ``nan``: not available, the rigid stick; 1 or more where the point is below its
+    shakedown limit, ``shakedown`` below 1: a later slip is not excluded, but every motion's
+    total slip is finite, so the motion still ends on a locked orbit) and the classifier's
+    reading of the record itself (``record_reason``)."""
+    if bound >= 1.0:
+        proof = (f"; a later slip is not excluded (bound {bound:.3f} of the slip limit), but the point is "
+                 f"below its shakedown limit (ratio {shakedown:.3f}): every motion's total slip is "
+                 f"finite, so the motion ends on a locked orbit (beamsim.shakedown)")
+    else:
+        proof = ("" if np.isnan(bound) else
+                 f"; no element can slip again: its traction stays below {bound:.3f} of its slip "
+                 f"limit for ever (beamsim.shakedown)")
     return (f"period 1: every element stuck over the record, so the motion is linear: the forced "
             f"response of the forcing period plus a free vibration that decays onto it at the "
             f"stuck beam's rates (lambda_1 = {lle_per_period:.3g}/period exactly, the slowest "

@@ -36,22 +36,11 @@ def index_columns(table: pd.DataFrame) -> list[str]:
 
 
 def lock_ratios(params: Sequence[dict]) -> np.ndarray:
-    """Per point (parameter dicts), its lock-up ratio :func:`beamsim.shakedown.lock_ratio`:
-    below 1, a locked (everywhere-stuck) period-1 motion exists beside whatever the run from
-    rest reached; NaN for a law without an elastic stick (rigid stick, full slip, Stribeck) and
-    where the stuck beam's stiffness or resonance matrix is singular."""
-    from beamsim.point import prepare_point
-    from beamsim.shakedown import lock_ratio
+    """Per point (parameter dicts), its lock-up ratio (:func:`analysis.pipeline.stages.locked_ratios`):
+    below 1, a locked (everywhere-stuck) period-1 motion exists; NaN without an elastic stick."""
+    from analysis.pipeline.stages import locked_ratios
 
-    out = np.full(len(params), np.nan)
-    for i, p in enumerate(params):
-        pp = prepare_point(**p)
-        if pp.friction.law == "stick-slip":
-            try:
-                out[i] = lock_ratio(pp)
-            except np.linalg.LinAlgError:
-                pass
-    return out
+    return np.array([locked_ratios(p)[0] for p in params], dtype=float)
 
 
 def assemble_regime_table(grid_points: Sequence[dict], simulated: pd.DataFrame, lyapunov: pd.DataFrame,

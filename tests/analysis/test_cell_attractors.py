@@ -125,6 +125,9 @@ def test_a_cell_below_its_lock_up_limit_whose_run_slips_also_starts_from_its_loc
     assert all(v == [] for v in cell_starts(table, finals, settings, axes).values())  # unknown
     off = MultistabilitySettings(neighbours=False, perturbations=0, locked=False)
     assert all(v == [] for v in cell_starts(slipping, finals, off, axes).values())
+    two_random = MultistabilitySettings(neighbours=False, perturbations=2)
+    with_random = cell_starts(slipping, finals, two_random, axes)
+    assert [n for n, _ in with_random[table["point_id"].iloc[0]]] == ["perturbed0", "perturbed1", "locked"]
 
 
 @pytest.fixture(scope="module")

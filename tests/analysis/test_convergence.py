@@ -297,12 +297,13 @@ def test_a_label_without_a_verdict_is_flagged_and_a_moved_verdict_is_not():
     assert flagged(runs.assign(supported=False), None).tolist() == [True] * 4
 
 
-def test_a_move_onto_the_locked_state_the_map_shows_is_counted_apart_from_unflagged_moves():
+def test_a_move_that_ends_locked_below_the_lock_up_limit_is_counted_apart_from_unflagged_moves():
     """Four chaotic cells under the doubled windows: a and b end periodic-1 with every element
-    stuck, but only a's map point has a locked state beside it (``lock_ratio`` below 1); c has
-    one too but ends on a slipping period-1 orbit; d keeps its label.  Only a's move is onto the
-    locked state the map shows; b's and c's are unexplained.  (A rule that read any periodic-1
-    end, or any cell with a locked state, as explained fails this.)"""
+    stuck, but only a's map point is below its lock-up limit (``lock_ratio`` below 1); c is too
+    but ends on a slipping period-1 orbit; d keeps its label.  Only a's move ends locked below
+    the limit; b's and c's are unmarked.  (A rule that read any periodic-1 end, or any cell
+    below the limit, as marked fails this.)  Under a refinement that changes the model (k_t)
+    the map's limit is another model's, and the same move counts as unmarked."""
     from analysis.pipeline.convergence import onto_locked
 
     rows = [("a", True, 1.0), ("b", False, 1.0), ("c", True, 0.9), ("d", True, 0.8)]
@@ -316,10 +317,13 @@ def test_a_move_onto_the_locked_state_the_map_shows_is_counted_apart_from_unflag
     assert onto_locked(runs).tolist() == [True, False, False, False]
     s = convergence_summary(runs)
     assert s["locked_moves"].tolist() == [1] and s["unflagged"].tolist() == [2]
-    assert summary_line(s).endswith("windows x 2 2; onto the coexisting locked state: windows x 2 1")
+    assert summary_line(s).endswith("windows x 2 2; ended locked below the lock-up limit (the map's label "
+                                    "there may be a transient): windows x 2 1")
+    model_row = convergence_summary(runs.assign(refinement="k_t"))
+    assert model_row["locked_moves"].tolist() == [0] and model_row["unflagged"].tolist() == [3]
     # a periodic-1 map label that ends locked has not moved: nothing to explain
     same = runs.assign(label="periodic", period=pd.array([1] * 4, dtype="Int64"))
     assert not onto_locked(same).any()
     # without the columns (an older table) nothing counts as explained
     assert not onto_locked(runs.drop(columns="locked")).any()
-    assert "locked state" not in summary_line(convergence_summary(runs.drop(columns="locked")))
+    assert "lock-up limit" not in summary_line(convergence_summary(runs.drop(columns="locked")))

@@ -116,24 +116,35 @@ def test_stuck_and_never_slipped_markers_are_counted_and_only_shown_when_present
 
 @pytest.mark.parametrize("axes", [{"Omega": [1.0, 2.0, 4.0], "f0_rel": [1.0, 1.5, 2.0, 3.0]},
                                   {"f0_rel": [1.0, 1.5, 2.0, 3.0, 4.0]}])
-def test_the_lock_up_limit_is_drawn_where_the_ratio_crosses_one_and_counts_the_other_labels(tmp_path,
-                                                                                            axes) -> None:
-    """The lock ratio is proportional to the load: with ``lock_ratio = f0_rel / 1.8`` the limit
-    lies at ``f0_rel`` 1.8, between the grid's 1.5 and 2.0 (interpolated exactly, since the
-    ratio is linear there); the legend counts the cells below it whose label is not periodic-1;
-    a map entirely on one side of the limit has no such line or entry."""
+def test_the_limits_are_drawn_where_their_ratios_cross_one_and_count_the_other_labels(tmp_path,
+                                                                                      axes) -> None:
+    """The lock ratio is proportional to the load: with ``lock_ratio = f0_rel / 1.8`` the
+    lock-up limit lies at ``f0_rel`` 1.8 (interpolated exactly, the ratio being linear), and
+    with ``mu_s / mu_k = 1.5`` the shakedown limit at 1.2.  Each legend entry counts the cells
+    below its limit whose label is not periodic-1 (a period-2 orbit counts: another label); a
+    map entirely below a limit keeps its count and says so; one entirely above has no entry."""
     from analysis.figures.regimes import lock_up_crossings
 
-    table = _table(axes)
+    table = _table(axes).assign(mu_s=0.45)
+    table.loc[table.index[::3], ["label", "period"]] = ["periodic", 2]
     table["lock_ratio"] = table["f0_rel"] / 1.8
     x = np.array([1.0, 1.5, 2.0, 3.0])
     assert lock_up_crossings(x[::-1], x[::-1] / 1.8) == pytest.approx([1.8], rel=1e-12)
     assert lock_up_crossings(x, np.array([0.5, np.nan, 2.0, 3.0])) == []
-    below = table["f0_rel"] < 1.8
-    other = int((below & ~((table["label"] == "periodic") & (table["period"] == 1))).sum())
+    assert lock_up_crossings(x, x / 2.0) == [2.0]  # a point exactly at 1: one crossing
+    p1 = ((table["label"] == "periodic") & (table["period"] == 1)).to_numpy()
+    assert (~p1 & (table["period"] == 2)).any()
     legend = _legend_of(plot_regimes, table, "g", {"axes": axes}, str(tmp_path / "a.png"), dpi=40)
-    entry = [t for t in legend if t.startswith("lock-up limit")]
-    assert len(entry) == 1 and f"({other} cells there with another label)" in entry[0], legend
+    for name, at in (("lock-up", 1.8), ("shakedown", 1.2)):
+        n = int(((table["f0_rel"] < at).to_numpy() & ~p1).sum())
+        entry = [t for t in legend if t.startswith(f"{name} limit")]
+        assert len(entry) == 1 and f"({n} cells there with another label)" in entry[0], legend
+        assert "every cell is below it" not in entry[0]
     table["lock_ratio"] = 0.5
     legend = _legend_of(plot_regimes, table, "g", {"axes": axes}, str(tmp_path / "b.png"), dpi=40)
-    assert not [t for t in legend if t.startswith("lock-up limit")]
+    entry = [t for t in legend if t.startswith("lock-up limit")]
+    assert len(entry) == 1 and f"({int((~p1).sum())} cells there" in entry[0]
+    assert "every cell is below" in entry[0]
+    table["lock_ratio"] = 2.0
+    legend = _legend_of(plot_regimes, table, "g", {"axes": axes}, str(tmp_path / "c.png"), dpi=40)
+    assert not [t for t in legend if "limit" in t]

@@ -158,6 +158,15 @@ def test_a_stuck_record_with_a_negative_exponent_is_periodic_1():
         assert row["label"] == want, (bound, row["reason"])
         assert (f"{bound:.3f}" in row["reason"]) and ("slip" in row["reason"]), row["reason"]
         assert pd.isna(row["period"]) == (want == "undetermined")
+    # below the shakedown limit (the simulate record's shakedown_ratio < 1) a later slip is not
+    # excluded by the bound, but every motion's total slip is finite: the motion ends on a
+    # locked orbit, periodic-1 with that reason; above it the bound's verdict stands
+    for kinetic, want in ((0.5, "periodic"), (1.2, "undetermined")):
+        lyap = pd.DataFrame([{"point_id": "p", "lle_mean": -1e-6 / T, "lle_lo": -1e-6 / T,
+                              "lle_hi": -1e-6 / T, "lle_verdict": LINEAR_VERDICT, "stuck_bound": 1.3}])
+        row = classify_points(sim.assign(shakedown_ratio=kinetic, stick_fraction=1.0), lyap).iloc[0]
+        assert row["label"] == want, (kinetic, row["reason"])
+        assert ("shakedown limit" in row["reason"]) == (want == "periodic"), row["reason"]
     # the same exponent without the linear verdict (a measured one) does not relabel the torus
     lyap = pd.DataFrame([{"point_id": "p", "lle_mean": -1e-6 / T, "lle_lo": -0.01 / T,
                           "lle_hi": 0.01 / T, "lle_verdict": "non-positive"}])
