@@ -334,8 +334,11 @@ def simulate_points(points: Sequence[dict], numerics: Numerics | dict, store_roo
 def locked_ratios(params: dict) -> tuple[float, float]:
     """A point's ``(lock_ratio, shakedown_ratio)`` (:func:`beamsim.shakedown.lock_ratio`,
     :func:`~beamsim.shakedown.shakedown_ratio`): below 1, a locked period-1 motion exists /
-    every motion shakes down.  NaN for a law without an elastic stick (rigid stick, full slip,
-    Stribeck) and where the stuck beam's stiffness or resonance matrix is singular."""
+    every motion converges to a locked period-1 orbit.  The second is NaN where a stuck mode is
+    undamped (``stuck_decay_rate`` 0: the slips still stop, but the free vibration left is
+    never damped, so the motion is not periodic).  Both NaN for a law without an elastic stick
+    (rigid stick, full slip, Stribeck) and where the stuck beam's stiffness or resonance matrix
+    is singular."""
     from beamsim.point import prepare_point
     from beamsim.shakedown import locked_orbit
 
@@ -346,7 +349,8 @@ def locked_ratios(params: dict) -> tuple[float, float]:
         orbit = locked_orbit(pp)
     except np.linalg.LinAlgError:
         return np.nan, np.nan
-    return float(np.max(orbit.ratio)), float(np.max(orbit.kinetic_ratio))
+    damped = pp.model.stuck_decay_rate() > 0.0
+    return float(np.max(orbit.ratio)), float(np.max(orbit.kinetic_ratio)) if damped else np.nan
 
 
 def unsettled_reason(sim_row: pd.Series | dict) -> str | None:
@@ -663,8 +667,9 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame,
 
     Non-results first: ``diverged`` (the integrator flagged the point), ``unsettled``
     (:func:`unsettled_reason` finds the record still a transient after the adaptive
-    transient's cap, by its own tests or by the continuation check; the reason says which);
-    otherwise
+    transient's cap, by its own tests or by the continuation check; the reason says which),
+    except below the shakedown limit (the record's ``shakedown_ratio`` below 1), where the
+    attractor is known, a locked period-1 orbit (:func:`shakedown_reason`); otherwise
     :func:`analysis.regimes.classify` on the stroboscopic samples of all generalised
     coordinates and velocities, with ``lambda_1 T`` and its confidence interval from the block
     statistics of the long Benettin record (``lle_mean``, ``lle_lo``, ``lle_hi``); the interval
@@ -695,6 +700,9 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame,
         why_transient = None if (sim["diverged"] or not np.all(np.isfinite(x))) else unsettled_reason(sim)
         if sim["diverged"] or not np.all(np.isfinite(x)):
             row.update(label=DIVERGED, reason="integration diverged")
+        elif why_transient is not None and float(sim.get("shakedown_ratio", np.nan)) < 1.0:
+            row.update(label=PERIODIC, period=1, reason=shakedown_reason(
+                float(sim["shakedown_ratio"]), int(sim["n_transient_used"]), why_transient))
         elif why_transient is not None:
             row.update(label=UNSETTLED, reason=f"transient not over after {int(sim['n_transient_used'])} "
                        f"periods: {why_transient}")
@@ -742,6 +750,16 @@ def stuck_record_reason(lle_per_period: float, record_reason: str, bound: float 
             f"stuck beam's rates (lambda_1 = {lle_per_period:.3g}/period exactly, the slowest "
             f"falling by e in {-1.0 / lle_per_period:.3g} periods){proof}; the record itself: "
             f"{record_reason}")
+
+
+def shakedown_reason(shakedown: float, n_transient_used: int, why_transient: str) -> str:
+    """Reason of the label periodic-1 for a record that is still a transient at the adaptive
+    transient's cap at a point below its shakedown limit (``shakedown`` below 1,
+    :func:`locked_ratios`): the record is not the attractor, but the attractor is known."""
+    return (f"period 1 by the shakedown limit: below it (ratio {shakedown:.3f}) every motion slips a "
+            f"finite total distance and the stuck beam is damped, so the motion converges to a locked "
+            f"period-1 orbit (beamsim.shakedown); the record after {n_transient_used} periods is still "
+            f"a transient: {why_transient}")
 
 
 def stuck_unproven_reason(bound: float, record_reason: str) -> str:

@@ -251,7 +251,7 @@ def test_a_slipping_record_below_the_shakedown_limit_is_continued_until_it_stops
     The same start at 1.3 of the limit is not held back by this rule (a record that slips
     there can be on an attractor)."""
     from analysis.pipeline.config import Numerics
-    from analysis.pipeline.stages import locked_ratios, simulate_runs, unsettled_reason
+    from analysis.pipeline.stages import locked_ratios, records_table, simulate_runs, unsettled_reason
     from beamsim.point import prepare_point
     from beamsim.shakedown import locked_orbit
 
@@ -278,6 +278,16 @@ def test_a_slipping_record_below_the_shakedown_limit_is_continued_until_it_stops
                                                                      n_transient_max=60,
                                                                      continuation_check=False), 1)[0]
     assert short["stick_fraction"] < 1.0 and "shakedown limit" in unsettled_reason(short)
+    # the classify stage: still a transient at the cap, but below the shakedown limit of a damped
+    # stuck beam the attractor is known (a locked period-1 orbit), so the label is periodic-1
+    sim = records_table([{"point_id": "a"}], [short])
+    lyap = pd.DataFrame([{"point_id": "a", "lle_mean": np.nan, "lle_lo": np.nan, "lle_hi": np.nan}])
+    row = classify_points(sim, lyap).iloc[0]
+    assert (row["label"], row["period"]) == ("periodic", 1), row["reason"]
+    assert row["reason"].startswith("period 1 by the shakedown limit") and not row["settled"]
+    # without any damping the slips still stop, but the free vibration left never decays: no
+    # ratio, no rule (the record is labelled by what it shows)
+    assert np.isnan(locked_ratios(base | {"interface_viscosity": 0.0})[1])
     for law in ({"law": "full-slip"}, {"law": "rigid-stick", "mu_s": 0.3}):  # no elastic stick: no ratios
         assert np.isnan(locked_ratios(base | law)).all()
     lock, kin = locked_ratios(base)
