@@ -52,7 +52,7 @@ def continuation_sweeps(points: Sequence[dict], numerics: Numerics | dict, *, ax
     (the tip's stroboscopic samples), ``poincare_state`` (the full state's), ``diverged``, and
     the integrators as in the regime table: ``method`` (of the reference run) and
     ``lle_free_copy`` (of the Lyapunov stage's free copy; both name a Zeno fallback), and the
-    point's ``lock_ratio`` (:func:`analysis.pipeline.table.lock_ratios`).
+    point's ``lock_ratio`` and ``shakedown_ratio`` (:func:`analysis.pipeline.table.lock_ratios`).
     """
     from analysis.pipeline.stages import (
         classify_points,
@@ -112,7 +112,7 @@ def continuation_sweeps(points: Sequence[dict], numerics: Numerics | dict, *, ax
                      "poincare_state": np.asarray(rec["poincare_state"], dtype=float).tolist()})
     out = pd.DataFrame(rows)
     out["period"] = out["period"].astype("Int64")
-    out["lock_ratio"] = lock_ratios(points)[out["k"].to_numpy()]
+    out[["lock_ratio", "shakedown_ratio"]] = lock_ratios(points)[out["k"].to_numpy()]
     return out
 
 

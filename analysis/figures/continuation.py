@@ -31,7 +31,7 @@ BRANCH_COLOURS = {"up": "#1f77b4", "down": "#d62728"}
 LINE_LIMIT_TEXT = {"lock-up": "lock-up limit: on the side where the lock ratio is below 1 a locked "
                               "period-1 state exists",
                    "shakedown": "shakedown limit: on the side where the kinetic ratio is below 1 "
-                                "every motion stops slipping"}
+                                "every motion converges to a locked orbit"}
 
 
 def plot_continuation(table: pd.DataFrame, axis: str, line: dict, name: str, path: str,
@@ -88,11 +88,11 @@ def plot_continuation(table: pd.DataFrame, axis: str, line: dict, name: str, pat
     ax2.set_ylabel(r"$\lambda_1 T$ (per forcing period)")
     if "lock_ratio" in table.columns:
         one = table.drop_duplicates("k")  # the ratios are the point's, the same on both branches
-        for name, ratio in limit_ratios(one).items():
+        for limit, ratio in limit_ratios(one).items():
             for i, x in enumerate(lock_up_crossings(one[axis].to_numpy(float), ratio)):
                 for ax in (ax0, ax1, ax2):
-                    ax.axvline(x, color="black", ls=LIMIT_STYLE[name]["ls"], lw=1.0,
-                               label=LINE_LIMIT_TEXT[name] if ax is ax2 and i == 0 else None)
+                    ax.axvline(x, color="black", ls=LIMIT_STYLE[limit]["ls"], lw=1.0,
+                               label=LINE_LIMIT_TEXT[limit] if ax is ax2 and i == 0 else None)
     ax2.legend(fontsize=7)
     if log:
         ax2.set_xscale("log")

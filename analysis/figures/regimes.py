@@ -200,14 +200,11 @@ def lock_up_crossings(x: np.ndarray, ratio: np.ndarray) -> list[float]:
 
 def limit_ratios(table: pd.DataFrame) -> dict[str, np.ndarray]:
     """The table's ratios to its two limits (:func:`beamsim.shakedown.locked_orbit`): ``lock-up``
-    (``lock_ratio``) and ``shakedown`` (``lock_ratio * mu_s / mu_k``, the kinetic ratio; only
-    where the table has ``mu_s`` and ``mu_k``)."""
-    lock = table["lock_ratio"].astype(float).to_numpy()
-    out = {"lock-up": lock}
-    if "mu_s" in table.columns and "mu_k" in table.columns:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            mu_s, mu_k = (table[c].astype(float).to_numpy() for c in ("mu_s", "mu_k"))
-            out["shakedown"] = lock * mu_s / mu_k
+    (``lock_ratio``) and ``shakedown`` (``shakedown_ratio``, the pipeline's: NaN where a stuck
+    mode is undamped; only where the table has the column)."""
+    out = {"lock-up": table["lock_ratio"].astype(float).to_numpy()}
+    if "shakedown_ratio" in table.columns:
+        out["shakedown"] = table["shakedown_ratio"].astype(float).to_numpy()
     return out
 
 
@@ -216,7 +213,7 @@ LIMIT_STYLE = {
     "lock-up": dict(ls="--", text="lock-up limit (lock ratio 1): on its side below 1 a locked\n"
                                   "period-1 state exists ({n} cells there with another label)"),
     "shakedown": dict(ls=":", text="shakedown limit (kinetic ratio 1): on its side below 1 every\n"
-                                   "motion stops slipping ({n} cells there with another label)"),
+                                   "motion converges to a locked orbit ({n} cells there with another label)"),
 }
 
 
@@ -225,9 +222,10 @@ def _lock_up_limit(ax, table: pd.DataFrame, keys: pd.Series, xs: np.ndarray | No
     """Draw where the table's ratios to the lock-up and shakedown limits
     (:func:`limit_ratios`) cross 1: a contour on a 2-D map, vertical lines on a 1-D diagram,
     dashed and dotted.  Below the lock-up limit a locked, everywhere-stuck period-1 motion
-    coexists with whatever the run from rest reached; below the shakedown limit every motion
-    ends there.  The legend counts the cells below each limit whose label is not periodic-1;
-    a limit the map lies entirely below gets its legend entry without a line."""
+    coexists with whatever the run from rest reached; below the shakedown limit every motion's
+    total slip is finite and it converges to a locked orbit.  The legend counts the cells below
+    each limit whose label is not periodic-1; a limit the map lies entirely below gets its
+    legend entry without a line."""
     other_label = (keys != "periodic").to_numpy()  # "periodic": period 1
     for name, ratio in limit_ratios(table).items():
         below = ratio < 1.0

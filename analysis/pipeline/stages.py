@@ -347,9 +347,9 @@ def locked_ratios(params: dict) -> tuple[float, float]:
         return np.nan, np.nan
     try:
         orbit = locked_orbit(pp)
+        damped = pp.model.stuck_decay_rate() > 0.0
     except np.linalg.LinAlgError:
         return np.nan, np.nan
-    damped = pp.model.stuck_decay_rate() > 0.0
     return float(np.max(orbit.ratio)), float(np.max(orbit.kinetic_ratio)) if damped else np.nan
 
 
@@ -525,6 +525,9 @@ def long_record_exemption(sim_row: pd.Series, params: dict) -> str | None:
 
     x = poincare_array(sim_row["poincare_state"])
     if unsettled_reason(sim_row) is not None:
+        if float(sim_row.get("shakedown_ratio", np.nan)) < 1.0:
+            return ("not measured: the record is a transient (labelled periodic-1 by the shakedown "
+                    "limit, not reached)")
         return "not measured: the record is a transient (unsettled)"
     if (params.get("law", "stick-slip") in STICKING_LAWS
             and float(sim_row["stick_fraction"]) >= 1.0):

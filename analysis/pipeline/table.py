@@ -36,17 +36,21 @@ def index_columns(table: pd.DataFrame) -> list[str]:
 
 
 def lock_ratios(params: Sequence[dict]) -> np.ndarray:
-    """Per point (parameter dicts), its lock-up ratio (:func:`analysis.pipeline.stages.locked_ratios`):
-    below 1, a locked (everywhere-stuck) period-1 motion exists; NaN without an elastic stick."""
+    """Per point (parameter dicts), its ``(lock_ratio, shakedown_ratio)``
+    (:func:`analysis.pipeline.stages.locked_ratios`) as an ``(n, 2)`` array: below 1, a locked
+    (everywhere-stuck) period-1 motion exists / every motion's total slip is finite and it
+    converges to a locked orbit; NaN without an elastic stick (and the second where a stuck
+    mode is undamped)."""
     from analysis.pipeline.stages import locked_ratios
 
-    return np.array([locked_ratios(p)[0] for p in params], dtype=float)
+    return np.array([locked_ratios(p) for p in params], dtype=float).reshape(-1, 2)
 
 
 def assemble_regime_table(grid_points: Sequence[dict], simulated: pd.DataFrame, lyapunov: pd.DataFrame,
                           classified: pd.DataFrame) -> pd.DataFrame:
     """Stage 4: one row per grid point in grid order (first axis slowest), parameters first;
-    then the lock-up ratio (``lock_ratio``: :func:`lock_ratios`); last the neighbour support of
+    then the lock-up and shakedown ratios (``lock_ratio``, ``shakedown_ratio``:
+    :func:`lock_ratios`); last the neighbour support of
     each label (``n_neighbours``, ``neighbours_same``:
     :func:`analysis.pipeline.neighbours.neighbour_support`)."""
     by_id = (classified.merge(lyapunov, on="point_id", how="left", suffixes=("", "_lle"))
@@ -66,7 +70,7 @@ def assemble_regime_table(grid_points: Sequence[dict], simulated: pd.DataFrame, 
         rows.append(row)
     table = pd.DataFrame(rows)
     table["period"] = table["period"].astype("Int64")
-    table["lock_ratio"] = lock_ratios([p["params"] for p in grid_points])
+    table[["lock_ratio", "shakedown_ratio"]] = lock_ratios([p["params"] for p in grid_points])
     # how many grid neighbours share each label (analysis.pipeline.neighbours)
     return table.join(neighbour_support(table))
 

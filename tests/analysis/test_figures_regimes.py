@@ -120,14 +120,16 @@ def test_the_limits_are_drawn_where_their_ratios_cross_one_and_count_the_other_l
                                                                                       axes) -> None:
     """The lock ratio is proportional to the load: with ``lock_ratio = f0_rel / 1.8`` the
     lock-up limit lies at ``f0_rel`` 1.8 (interpolated exactly, the ratio being linear), and
-    with ``mu_s / mu_k = 1.5`` the shakedown limit at 1.2.  Each legend entry counts the cells
+    with ``shakedown_ratio`` 1.5 times it (``mu_s / mu_k``) the shakedown limit at 1.2; a map
+    without a shakedown ratio (undamped) has no dotted line.  Each legend entry counts the cells
     below its limit whose label is not periodic-1 (a period-2 orbit counts: another label); a
     map entirely below a limit keeps its count and says so; one entirely above has no entry."""
     from analysis.figures.regimes import lock_up_crossings
 
-    table = _table(axes).assign(mu_s=0.45)
+    table = _table(axes)
     table.loc[table.index[::3], ["label", "period"]] = ["periodic", 2]
     table["lock_ratio"] = table["f0_rel"] / 1.8
+    table["shakedown_ratio"] = table["lock_ratio"] * 1.5  # mu_s / mu_k
     x = np.array([1.0, 1.5, 2.0, 3.0])
     assert lock_up_crossings(x[::-1], x[::-1] / 1.8) == pytest.approx([1.8], rel=1e-12)
     assert lock_up_crossings(x, np.array([0.5, np.nan, 2.0, 3.0])) == []
@@ -140,11 +142,12 @@ def test_the_limits_are_drawn_where_their_ratios_cross_one_and_count_the_other_l
         entry = [t for t in legend if t.startswith(f"{name} limit")]
         assert len(entry) == 1 and f"({n} cells there with another label)" in entry[0], legend
         assert "every cell is below it" not in entry[0]
-    table["lock_ratio"] = 0.5
+    table["lock_ratio"], table["shakedown_ratio"] = 0.5, np.nan  # an undamped map: no shakedown limit
     legend = _legend_of(plot_regimes, table, "g", {"axes": axes}, str(tmp_path / "b.png"), dpi=40)
+    assert not [t for t in legend if t.startswith("shakedown limit")]
     entry = [t for t in legend if t.startswith("lock-up limit")]
     assert len(entry) == 1 and f"({int((~p1).sum())} cells there" in entry[0]
     assert "every cell is below" in entry[0]
-    table["lock_ratio"] = 2.0
+    table["lock_ratio"], table["shakedown_ratio"] = 2.0, 3.0
     legend = _legend_of(plot_regimes, table, "g", {"axes": axes}, str(tmp_path / "c.png"), dpi=40)
     assert not [t for t in legend if "limit" in t]

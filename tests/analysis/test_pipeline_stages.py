@@ -247,7 +247,10 @@ def test_a_slipping_record_below_the_shakedown_limit_is_continued_until_it_stops
     :func:`beamsim.shakedown.locked_orbit`), started with a velocity kick that keeps it slipping
     for about 200 periods: its first records slip, so the adaptive transient continues them
     until one is stuck at every element (labelled then by the stuck-record rule); with a cap
-    too short for that the point is ``unsettled`` and the reason names the shakedown limit.
+    too short for that the record is still a transient, the reason names the shakedown limit,
+    and the classify stage labels it periodic-1 by the theorem (not settled), but only below
+    the limit: with the ratio NaN or at 1 or above the slipping record is no transient by this
+    rule (its samples decide).
     The same start at 1.3 of the limit is not held back by this rule (a record that slips
     there can be on an attractor)."""
     from analysis.pipeline.config import Numerics
@@ -285,6 +288,9 @@ def test_a_slipping_record_below_the_shakedown_limit_is_continued_until_it_stops
     row = classify_points(sim, lyap).iloc[0]
     assert (row["label"], row["period"]) == ("periodic", 1), row["reason"]
     assert row["reason"].startswith("period 1 by the shakedown limit") and not row["settled"]
+    for other in (np.nan, 1.0, 1.3):  # the rule's boundary: no ratio, at the limit, above it
+        why = unsettled_reason(short | {"shakedown_ratio": other})
+        assert why is None or "shakedown" not in why
     # without any damping the slips still stop, but the free vibration left never decays: no
     # ratio, no rule (the record is labelled by what it shows)
     assert np.isnan(locked_ratios(base | {"interface_viscosity": 0.0})[1])

@@ -141,6 +141,8 @@ def test_multistability_step_ships_with_the_map(first_run):
         cell = att[att["point_id"] == row["point_id"]]
         rest = cell[cell["starts"].map(lambda s: "rest" in list(s))]
         by_theorem = row["reason"].startswith("period 1 by the shakedown limit")
+        if by_theorem:  # a record still a transient below the limit: not settled, ratio below 1
+            assert not row["settled"] and row["shakedown_ratio"] < 1.0
         assert len(rest) == 1
         assert rest["label"].iloc[0] == ("unsettled" if by_theorem else row["label"])
         a = rest["attractor"].iloc[0]
