@@ -148,11 +148,16 @@ NON_RESULTS = ("unsettled", "diverged", "undetermined")
 
 def _limit_cycle_verdict(rows: pd.DataFrame) -> str:
     """A claimed limit cycle (a fixed point of the Poincare map) at every mapped point, judged
-    on the points that reached a regime (:data:`NON_RESULTS` neither confirm nor contradict):
+    on the points that reached a regime (:data:`NON_RESULTS` neither confirm nor contradict, nor
+    does a label given by the shakedown limit alone, whose record did not reach its attractor:
+    :data:`analysis.pipeline.stages.BY_SHAKEDOWN`):
     period 1 everywhere -> reproduced; periodic (any period) at one point or more and
     quasi-periodic at most elsewhere -> reproduced qualitatively; otherwise (chaos, or no
     periodic point) -> false as stated; no point settled -> data missing."""
-    settled = rows[~rows["label"].isin(NON_RESULTS)]
+    from analysis.pipeline.stages import BY_SHAKEDOWN
+
+    reached = ~rows["reason"].astype(str).str.startswith(BY_SHAKEDOWN) if "reason" in rows else True
+    settled = rows[~rows["label"].isin(NON_RESULTS) & reached]
     if settled.empty:
         return DATA_MISSING
     labels = set(settled["label"])

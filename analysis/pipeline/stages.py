@@ -755,11 +755,16 @@ def stuck_record_reason(lle_per_period: float, record_reason: str, bound: float 
             f"{record_reason}")
 
 
+#: the first words of the reason of a label given by the shakedown limit alone (the record is
+#: still a transient: :func:`shakedown_reason`)
+BY_SHAKEDOWN = "period 1 by the shakedown limit"
+
+
 def shakedown_reason(shakedown: float, n_transient_used: int, why_transient: str) -> str:
     """Reason of the label periodic-1 for a record that is still a transient at the adaptive
     transient's cap at a point below its shakedown limit (``shakedown`` below 1,
     :func:`locked_ratios`): the record is not the attractor, but the attractor is known."""
-    return (f"period 1 by the shakedown limit: below it (ratio {shakedown:.3f}) every motion slips a "
+    return (f"{BY_SHAKEDOWN}: below it (ratio {shakedown:.3f}) every motion slips a "
             f"finite total distance and the stuck beam is damped, so the motion converges to a locked "
             f"period-1 orbit (beamsim.shakedown); the record after {n_transient_used} periods is still "
             f"a transient: {why_transient}")

@@ -168,6 +168,16 @@ def test_limit_cycle_claims_skip_unsettled_runs_and_trends_need_the_numbers():
     und = rows.assign(label=["periodic", "undetermined", "periodic"], period=[3, None, 3])
     assert V._limit_cycle_verdict(und) == V.QUALITATIVE
     assert V._limit_cycle_verdict(rows.assign(label="undetermined")) == V.DATA_MISSING
+    # a periodic-1 label given by the shakedown limit alone (its record still a transient) did
+    # not reach a regime: it neither confirms nor contradicts
+    from analysis.pipeline.stages import BY_SHAKEDOWN
+
+    theorem = qp.assign(label=["periodic", "unsettled", "periodic"], period=[1, None, 1],
+                        reason=["period 1: x[i+1] matches x[i]", "", f"{BY_SHAKEDOWN}: ..."])
+    assert V._limit_cycle_verdict(theorem.iloc[[0, 2]]) == V.REPRODUCED
+    assert V._limit_cycle_verdict(theorem.iloc[[2]]) == V.DATA_MISSING
+    three = theorem.assign(period=[3, None, 1])
+    assert V._limit_cycle_verdict(three) == V.QUALITATIVE  # the theorem's period 1 is not counted
 
 
 @pytest.mark.parametrize("case, law", [("f0=5", PAPER_LAW), ("(c, d)", "full-slip")],

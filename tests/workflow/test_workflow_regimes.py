@@ -15,6 +15,7 @@ from workflow_run import GRID, ROOT, setup_workdir, snakemake
 
 from analysis.lyapunov.beam import RK4_SECOND_OPINION
 from analysis.pipeline.grid import RESULTS_VERSION
+from analysis.pipeline.stages import BY_SHAKEDOWN
 from analysis.pipeline.table import read_regime_metadata
 from analysis.regimes import CLASSIFIER_VERSION
 
@@ -140,7 +141,7 @@ def test_multistability_step_ships_with_the_map(first_run):
     for _, row in table.iterrows():
         cell = att[att["point_id"] == row["point_id"]]
         rest = cell[cell["starts"].map(lambda s: "rest" in list(s))]
-        by_theorem = row["reason"].startswith("period 1 by the shakedown limit")
+        by_theorem = row["reason"].startswith(BY_SHAKEDOWN)
         if by_theorem:  # a record still a transient below the limit: not settled, ratio below 1
             assert not row["settled"] and row["shakedown_ratio"] < 1.0
         assert len(rest) == 1
