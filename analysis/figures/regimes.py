@@ -110,7 +110,7 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
     every element over its whole record (``stick_fraction`` 1: the interface does no friction
     work there, docs/classification.md rule 3); each marker is in the legend, with its count,
     only where the map has such cells.  With a ``lock_ratio`` column, a dashed line marks the
-    lock-up limit and a dotted one the shakedown limit (:func:`_lock_up_limit`)."""
+    lock-up limit and a dotted one the shakedown limit (:func:`_draw_limits`)."""
     axes = list(grid["axes"])
     keys = table.apply(_label_key, axis=1)
     present = [k for k in LABEL_COLOURS if (keys == k).any()]
@@ -142,7 +142,7 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
                 handles.append(plt.Line2D([], [], marker="_", ms=5, mew=1.0, ls="", color="0.3",
                                           label=f"every element stuck over the record ({len(locked)})"))
         if "lock_ratio" in table.columns:
-            _lock_up_limit(ax, table, keys, xs, ys, xa, ya, handles)
+            _draw_limits(ax, table, keys, xs, ys, xa, ya, handles)
         if "neighbours_same" in table.columns:  # labels finer than the grid
             from analysis.pipeline.neighbours import supported
 
@@ -173,7 +173,7 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
                 handles.append(plt.Line2D([], [], marker="o", ls="", mfc="none", color="0.3",
                                           label="other attractors (other starts)"))
         if "lock_ratio" in table.columns:
-            _lock_up_limit(ax, table, keys, None, None, xa, None, handles)
+            _draw_limits(ax, table, keys, None, None, xa, None, handles)
         if _is_log(grid, xa):
             ax.set_xscale("log")
         ax.set_xlabel(_axis_label(xa))
@@ -217,7 +217,7 @@ LIMIT_STYLE = {
 }
 
 
-def _lock_up_limit(ax, table: pd.DataFrame, keys: pd.Series, xs: np.ndarray | None, ys: np.ndarray | None,
+def _draw_limits(ax, table: pd.DataFrame, keys: pd.Series, xs: np.ndarray | None, ys: np.ndarray | None,
                    xa: str, ya: str | None, handles: list) -> None:
     """Draw where the table's ratios to the lock-up and shakedown limits
     (:func:`limit_ratios`) cross 1: a contour on a 2-D map, vertical lines on a 1-D diagram,

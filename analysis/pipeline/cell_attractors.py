@@ -184,18 +184,12 @@ def locked_start(params: dict) -> dict:
     (:func:`beamsim.shakedown.locked_orbit`) where its law is the elastic stick and the orbit
     never slips (``lock_ratio`` below 1); ``{}`` otherwise."""
     from analysis.continuation import state_params
-    from beamsim.shakedown import locked_orbit
-    from beamsim.simulate import prepare_point
+    from analysis.pipeline.stages import point_locked_orbit
 
-    pp = prepare_point(**params)
-    if pp.friction.law != "stick-slip":
+    found = point_locked_orbit(params)
+    if found is None or not np.max(found[1].ratio) < 1.0:
         return {}
-    try:
-        orbit = locked_orbit(pp)
-    except np.linalg.LinAlgError:
-        return {}
-    if not np.max(orbit.ratio) < 1.0:
-        return {}
+    pp, orbit = found
     return state_params(orbit.state, pp.model.n, pp.model.n_quad)
 
 

@@ -331,12 +331,9 @@ def simulate_points(points: Sequence[dict], numerics: Numerics | dict, store_roo
     return records_table(points, recs)
 
 
-def locked_ratios(params: dict) -> tuple[float, float]:
-    """A point's ``(lock_ratio, shakedown_ratio)`` (:func:`beamsim.shakedown.lock_ratio`,
-    :func:`~beamsim.shakedown.shakedown_ratio`): below 1, a locked period-1 motion exists /
-    every motion converges to a locked period-1 orbit.  The second is NaN where a stuck mode is
-    undamped (``stuck_decay_rate`` 0: the slips still stop, but the free vibration left is
-    never damped, so the motion is not periodic).  Both NaN for a law without an elastic stick
+def point_locked_orbit(params: dict):
+    """A point's prepared model and locked orbit, ``(pp, orbit)``
+    (:func:`beamsim.shakedown.locked_orbit`), or ``None`` for a law without an elastic stick
     (rigid stick, full slip, Stribeck) and where the stuck beam's stiffness or resonance matrix
     is singular."""
     from beamsim.point import prepare_point
@@ -344,9 +341,25 @@ def locked_ratios(params: dict) -> tuple[float, float]:
 
     pp = prepare_point(**params)
     if pp.friction.law != "stick-slip":
-        return np.nan, np.nan
+        return None
     try:
-        orbit = locked_orbit(pp)
+        return pp, locked_orbit(pp)
+    except np.linalg.LinAlgError:
+        return None
+
+
+def locked_ratios(params: dict) -> tuple[float, float]:
+    """A point's ``(lock_ratio, shakedown_ratio)`` (:func:`beamsim.shakedown.lock_ratio`,
+    :func:`~beamsim.shakedown.shakedown_ratio`): below 1, a locked period-1 motion exists /
+    every motion converges to a locked period-1 orbit.  The second is NaN where a stuck mode is
+    undamped (``stuck_decay_rate`` 0: the total slip is still finite, but the free vibration
+    left is never damped, so the motion is not periodic).  Both NaN where
+    :func:`point_locked_orbit` gives none or the stuck decay rate cannot be computed."""
+    found = point_locked_orbit(params)
+    if found is None:
+        return np.nan, np.nan
+    pp, orbit = found
+    try:
         damped = pp.model.stuck_decay_rate() > 0.0
     except np.linalg.LinAlgError:
         return np.nan, np.nan
