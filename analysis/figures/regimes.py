@@ -97,7 +97,8 @@ def _title(what: str, grid_name: str, table: pd.DataFrame, axes: list[str], evid
 
 
 def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi: int = 130,
-                 evidence: str | None = None, attractors: pd.DataFrame | None = None) -> None:
+                 evidence: str | None = None, attractors: pd.DataFrame | None = None,
+                 lifetimes: pd.DataFrame | None = None) -> None:
     """2-D grid: categorical regime map; 1-D grid: bifurcation diagram coloured by regime.
     ``evidence``: a line on the labels' convergence (and multistability) for the title.
     ``attractors``: the multistability table (:func:`analysis.pipeline.cell_attractors.cell_attractors`):
@@ -110,7 +111,10 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
     every element over its whole record (``stick_fraction`` 1: the interface does no friction
     work there, docs/classification.md rule 3); each marker is in the legend, with its count,
     only where the map has such cells.  With a ``lock_ratio`` column, a dashed line marks the
-    lock-up limit and a dotted one the shakedown limit (:func:`_draw_limits`)."""
+    lock-up limit and a dotted one the shakedown limit (:func:`_draw_limits`).  ``lifetimes``: the
+    lifetime table (:func:`analysis.pipeline.chaos_lifetime.chaos_lifetimes`): a triangle marks
+    each cell measured, filled white where copies of its motion ended locked (a transient),
+    open where none did (:func:`_mark_lifetimes`)."""
     axes = list(grid["axes"])
     keys = table.apply(_label_key, axis=1)
     present = [k for k in LABEL_COLOURS if (keys == k).any()]
@@ -143,6 +147,8 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
                                           label=f"every element stuck over the record ({len(locked)})"))
         if "lock_ratio" in table.columns:
             _draw_limits(ax, table, keys, xs, ys, xa, ya, handles)
+        if lifetimes is not None:
+            _mark_lifetimes(ax, lifetimes, xa, ya, handles)
         if "neighbours_same" in table.columns:  # labels finer than the grid
             from analysis.pipeline.neighbours import supported
 
@@ -174,6 +180,8 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
                                           label="other attractors (other starts)"))
         if "lock_ratio" in table.columns:
             _draw_limits(ax, table, keys, None, None, xa, None, handles)
+        if lifetimes is not None:
+            _mark_lifetimes(ax, lifetimes, xa, None, handles)
         if _is_log(grid, xa):
             ax.set_xscale("log")
         ax.set_xlabel(_axis_label(xa))
@@ -246,6 +254,31 @@ def _draw_limits(ax, table: pd.DataFrame, keys: pd.Series, xs: np.ndarray | None
         if not (ratio >= 1.0).any():
             text += "; every cell is below it"
         handles.append(plt.Line2D([], [], color="black", ls=style["ls"], lw=1.2, label=text))
+
+
+def _mark_lifetimes(ax, lifetimes: pd.DataFrame, xa: str, ya: str | None, handles: list) -> None:
+    """A triangle on each cell of the lifetime table (at the top of a 1-D diagram): filled white
+    where some copies ended locked (the motion is a transient there), open where none did; the
+    legend gives the counts and the measured mean lifetimes or their least lower bound."""
+    if lifetimes.empty:
+        return
+    done = lifetimes["n_escaped"] > 0
+    for sel, face, text in ((done, "white", "copies ended locked: a transient"),
+                            (~done, "none", "no copy ended locked")):
+        part = lifetimes[sel]
+        if part.empty:
+            continue
+        if ya is None:
+            y, kw = np.ones(len(part)), {"transform": ax.get_xaxis_transform(), "clip_on": False}
+        else:
+            y, kw = part[ya].to_numpy(), {}
+        ax.plot(part[xa], y, "v", ms=4, mfc=face, mec="black", mew=0.6, ls="", **kw)
+        if face == "white":
+            life = f"mean lifetime {part['lifetime'].min():.0f}-{part['lifetime'].max():.0f} T"
+        else:
+            life = f"mean lifetime > {part['lifetime_lo'].min():.0f} T"
+        handles.append(plt.Line2D([], [], marker="v", ms=4, mfc=face, mec="black", ls="",
+                                  label=f"{text} ({len(part)}; {life})"))
 
 
 def _hatch_multistable(ax, attractors: pd.DataFrame, xs: np.ndarray, ys: np.ndarray, xa: str, ya: str,

@@ -25,7 +25,10 @@ The estimate is a cost model, ``seconds = c * periods / Omega``, per stage and p
 * the multistability runs (:mod:`analysis.pipeline.cell_attractors`;
   :func:`multistability_seconds`): per grid, the cells run from other starts times the starts
   per cell times the mean simulate estimate of the grid's points, plus the Lyapunov stage for the
-  expected share :data:`NEW_ATTRACTOR_SHARE` of the starts that end on an attractor of their own.
+  expected share :data:`NEW_ATTRACTOR_SHARE` of the starts that end on an attractor of their own;
+* the lifetime runs (:mod:`analysis.pipeline.chaos_lifetime`; :func:`lifetime_seconds`): per
+  grid, the expected share :data:`LIFETIME_CELL_SHARE` of its points (at most ``max_cells``)
+  times the copies times their periods at the grid's mean simulate coefficient per period.
 
 The two shares are measured on the default grid (docs/pipeline.md, results version 6: 26 % of
 the points ran a long record, 29 % were continued, 3.5 % twice; version 8: about 32 % continued,
@@ -52,7 +55,7 @@ from analysis.pipeline.stages import free_copy_integrator, integrator
 from analysis.pipeline.store import PointStore
 
 __all__ = ["COST_MODEL_FILE", "Estimate", "LONG_RUN_SECONDS", "convergence_seconds", "estimate_run",
-           "load_cost_model", "multistability_seconds"]
+           "lifetime_seconds", "load_cost_model", "multistability_seconds"]
 
 COST_MODEL_FILE = Path(__file__).with_name("cost_model.yaml")
 #: a run estimated longer than this on the current cores needs ``--config allow_long=True``
@@ -71,6 +74,9 @@ EXTENDED_SHARE = 0.3
 #: expected share of a cell's extra starts that reach an attractor of their own (each then
 #: needs a Lyapunov run; default grid: 100 of 192, docs/pipeline.md)
 NEW_ATTRACTOR_SHARE = 0.5
+#: expected share of a grid's cells that the lifetime runs take (the labels set, below the
+#: lock-up limit, slipping; default grid, chaotic: 15 of 400, docs/pipeline.md)
+LIFETIME_CELL_SHARE = 0.04
 
 
 @dataclass(frozen=True)
@@ -101,7 +107,8 @@ class Estimate:
     def summary(self, cores: int) -> str:
         """One line: points, new points per stage, estimated time on ``cores`` cores."""
         n = self.convergence_runs
-        conv = f", {n} convergence / continuation / multistability run{'s' if n != 1 else ''}" if n else ""
+        runs = "convergence / continuation / multistability / lifetime run" + ("s" if n != 1 else "")
+        conv = f", {n} {runs}" if n else ""
         return (f"{self.points} points; to compute: {self.new_simulate} simulate, "
                 f"{self.new_lyapunov} lyapunov{conv}; estimated {_duration(self.wall_seconds(cores))} "
                 f"on {cores} core{'s' if cores != 1 else ''}")
@@ -197,18 +204,39 @@ def multistability_seconds(points: Sequence, numerics: Numerics, n_cells: int, s
     return runs * (sim + NEW_ATTRACTOR_SHARE * lyap), runs
 
 
+def lifetime_seconds(points: Sequence, numerics: Numerics, settings, model: Mapping | None = None
+                     ) -> tuple[float, int]:
+    """Estimated single-thread seconds and the number of copy runs of one grid's lifetime runs
+    (``settings``: :class:`analysis.pipeline.chaos_lifetime.LifetimeSettings`): the expected
+    cells (:data:`LIFETIME_CELL_SHARE` of ``points``, at most ``settings.max_cells``, at least
+    one) times ``settings.copies`` runs of ``settings.periods`` periods, at the mean over the
+    points of the simulate coefficient per period."""
+    model = load_cost_model() if model is None else model
+    if not settings.active or not points:
+        return 0.0, 0
+    cells = min(settings.max_cells, max(1, round(LIFETIME_CELL_SHARE * len(points))))
+    per_period = sum(_coefficient(model["simulate"][integrator(numerics.method, p.params)],
+                                  int(p.params.get("n_modes", 1))) / float(p.params.get("Omega", 1.0))
+                     for p in points) / len(points)
+    runs = cells * settings.copies
+    return runs * settings.periods * per_period, runs
+
+
 def estimate_run(points: Iterable, numerics: Numerics, store_root: str | Path,
                  model: Mapping | None = None,
                  convergence: Iterable[tuple[Sequence, Iterable[str], int]] = (),
                  lines: Iterable[Sequence] = (),
-                 multistability: Iterable[tuple[Sequence, int, int]] = ()) -> Estimate:
+                 multistability: Iterable[tuple[Sequence, int, int]] = (),
+                 lifetimes: Iterable[tuple[Sequence, object]] = ()) -> Estimate:
     """Estimate of the work for ``points`` (objects with ``point_id`` and ``params``; the same
     point in two grids counts once) given what ``store_root`` already holds, plus the
     convergence runs still to do: ``(grid's points, pending refinements, sample)`` per grid
     (:func:`convergence_seconds`), plus the pending continuation ``lines`` (each a sequence of
     points, run up and down; they count as convergence-like re-runs), plus the pending
     multistability runs: ``(grid's points, cells, starts per cell)`` per grid
-    (:func:`multistability_seconds`; counted with the convergence-like re-runs)."""
+    (:func:`multistability_seconds`; counted with the convergence-like re-runs), plus the pending
+    lifetime runs: ``(grid's points, settings)`` per grid (:func:`lifetime_seconds`; counted
+    likewise)."""
     model = load_cost_model() if model is None else model
     stores = {s: PointStore(store_root, s) for s in ("simulate", "lyapunov")}
     unique = {p.point_id: p.params for p in points}
@@ -231,6 +259,10 @@ def estimate_run(points: Iterable, numerics: Numerics, store_root: str | Path,
             conv_runs += 2
     for grid_points, n_cells, starts in multistability:
         s, r = multistability_seconds(grid_points, numerics, n_cells, starts, model)
+        seconds += s
+        conv_runs += r
+    for grid_points, settings in lifetimes:
+        s, r = lifetime_seconds(grid_points, numerics, settings, model)
         seconds += s
         conv_runs += r
     return Estimate(len(unique), new["simulate"], new["lyapunov"], seconds, disk, conv_runs)

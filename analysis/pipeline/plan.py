@@ -18,6 +18,7 @@ import yaml
 from snakemake.exceptions import WorkflowError
 
 from analysis.pipeline.cell_attractors import MultistabilitySettings
+from analysis.pipeline.chaos_lifetime import LifetimeSettings
 from analysis.pipeline.config import Numerics
 from analysis.pipeline.convergence import ConvergenceSettings, refine
 from analysis.pipeline.grid import GridPoint, canonical_json, chunk_points, expand_grid
@@ -54,6 +55,7 @@ class Plan:
     so compile_kernels builds them too).
     convergence : the convergence runs' settings (sample size, seed, refinements).
     multistability : the settings of the runs of a map's cells from other starts.
+    lifetimes : the settings of the lifetime runs of a map's chaos below the lock-up limit.
     lines : grid name -> line name -> the line's points in axis order (continuation sweeps).
     """
 
@@ -69,6 +71,7 @@ class Plan:
     rigid_stick: bool
     convergence: ConvergenceSettings
     multistability: MultistabilitySettings
+    lifetimes: LifetimeSettings
     lines: dict[str, dict[str, list[GridPoint]]]
 
 
@@ -119,6 +122,7 @@ def build_plan(config: dict, schemas: Path) -> Plan:
     try:
         convergence = ConvergenceSettings.from_dict(config.get("convergence"))
         multistability = MultistabilitySettings.from_dict(config.get("multistability"))
+        lifetimes = LifetimeSettings.from_dict(config.get("lifetimes"))
         for pts in points.values():  # every refinement applies to every point (modes + 1 <= max)
             for ref in convergence.active:
                 for p in pts:
@@ -126,7 +130,7 @@ def build_plan(config: dict, schemas: Path) -> Plan:
     except ValueError as exc:
         raise WorkflowError(f"invalid config: {exc}") from None
     return Plan(grids, numerics, result_numerics, table_config, config_hash, points, chunks,
-                methods, free_methods, rigid, convergence, multistability, lines)
+                methods, free_methods, rigid, convergence, multistability, lifetimes, lines)
 
 
 def _expand_lines(grids: dict, model: dict, result_numerics: dict, model_schema: dict,

@@ -88,9 +88,9 @@ def test_the_convergence_runs_are_in_the_estimate(tmp_path):
     assert base.cpu_seconds < multi.cpu_seconds < base.cpu_seconds + 10 * mean
     off = estimate_run(pts, Numerics(), tmp_path, multistability=[(pts, 0, 5)])
     assert off.cpu_seconds == base.cpu_seconds and off.convergence_runs == 0
-    assert "3 convergence / continuation / multistability runs" in many.summary(2)
-    assert "1 convergence / continuation / multistability run;" in estimate_run(pts, Numerics(), tmp_path,
-                                                   convergence=[(pts, ["k_t"], 1)]).summary(2)
+    assert "3 convergence / continuation / multistability / lifetime runs" in many.summary(2)
+    one = estimate_run(pts, Numerics(), tmp_path, convergence=[(pts, ["k_t"], 1)])
+    assert "1 convergence / continuation / multistability / lifetime run;" in one.summary(2)
 
 
 def test_a_long_run_needs_the_opt_in():
@@ -118,9 +118,10 @@ def test_a_ten_thousand_point_grid_is_planned_by_a_dry_run_and_refused_without_o
     work = setup_workdir(tmp_path / "huge", grid=grid, n_transient=1000, chunk_size=100)
     dry = snakemake(work, "-n", "regimes")
     assert dry.returncode == 0, dry.stderr[-2000:]
-    # the test workflows' convergence step: one sampled point, one refinement
+    # the test workflows' convergence step (one sampled point, one refinement) and lifetime runs
+    # (two copies of the expected cells: 4 % of 10,000, capped at max_cells, 40)
     words = ("regimes: 10000 points; to compute: 10000 simulate, 10000 lyapunov, "
-             "1 convergence / continuation / multistability run; estimated")
+             "81 convergence / continuation / multistability / lifetime runs; estimated")
     assert words in dry.stdout + dry.stderr
     res = snakemake(work, "regimes")
     lines = [ln for ln in (res.stdout + res.stderr).splitlines() if ln.startswith("long run:")]
@@ -140,3 +141,25 @@ def test_extrapolation_above_the_measured_modes_never_falls():
     assert _coefficient({1: 1.0, 2: 2.0, 3: 4.0}, 4) == pytest.approx(8.0)
     assert _coefficient({1: 1.0, 2: 2.0, 3: 1.5}, 5) == pytest.approx(1.5)
     assert _coefficient({1: 1.0, 2: 2.0, 3: 1.5}, 2) == 2.0
+
+
+def test_the_lifetime_runs_are_in_the_estimate(tmp_path):
+    """The lifetime runs add the expected cells times the copies, each its periods at the
+    points' mean simulate cost per period (twice the periods, twice the cost; none when off)."""
+    from analysis.pipeline.chaos_lifetime import LifetimeSettings
+    from analysis.pipeline.cost import LIFETIME_CELL_SHARE
+
+    pts = _points(np.linspace(1.0, 4.0, 100))
+    base = estimate_run(pts, Numerics(), tmp_path)
+    st = LifetimeSettings.from_dict({"copies": 4, "periods": 500})
+    one = estimate_run(pts, Numerics(), tmp_path, lifetimes=[(pts, st)])
+    assert one.convergence_runs == round(LIFETIME_CELL_SHARE * 100) * 4
+    two = estimate_run(pts, Numerics(), tmp_path,
+                       lifetimes=[(pts, LifetimeSettings.from_dict({"copies": 4, "periods": 1000}))])
+    assert two.cpu_seconds - base.cpu_seconds == pytest.approx(2 * (one.cpu_seconds - base.cpu_seconds))
+    capped = estimate_run(pts, Numerics(), tmp_path, lifetimes=[(pts, LifetimeSettings.from_dict(
+        {"copies": 4, "periods": 500, "max_cells": 1}))])
+    assert capped.convergence_runs == 4
+    none = LifetimeSettings.from_dict({"copies": 0})
+    off = estimate_run(pts, Numerics(), tmp_path, lifetimes=[(pts, none)])
+    assert off.cpu_seconds == base.cpu_seconds and off.convergence_runs == 0

@@ -27,6 +27,10 @@ SHORT_CONVERGENCE = {"sample": 1, "seed": 0, "refinements": ["k_t"]}
 #: turns it on)
 NO_MULTISTABILITY = {"sample": 0}
 
+#: the lifetime step of the test workflows: every label, two short copies per cell
+SHORT_LIFETIMES = {"labels": ["periodic", "quasi-periodic", "chaotic", "undetermined", "unsettled"],
+                   "copies": 2, "periods": 20}
+
 
 def snakemake_command(workdir: Path, *args: str, cores: int = 2) -> list[str]:
     return [sys.executable, "-m", "snakemake", "-s", str(ROOT / "Snakefile"), "-d", str(workdir),
@@ -43,10 +47,12 @@ def snakemake(workdir: Path, *args: str, cores: int = 2) -> subprocess.Completed
 
 
 def setup_workdir(path: Path, grid: dict = GRID, convergence: dict = SHORT_CONVERGENCE,
-                  multistability: dict = NO_MULTISTABILITY, **numerics) -> Path:
+                  multistability: dict = NO_MULTISTABILITY, lifetimes: dict = SHORT_LIFETIMES,
+                  **numerics) -> Path:
     """``path`` with ``config.yaml`` (the shipped config, short runs -- a fixed transient, a
     long Benettin record no longer than the Stefanski window, ``convergence`` for the
-    convergence step, ``multistability`` for the runs from other starts --, chunks of two
+    convergence step, ``multistability`` for the runs from other starts, ``lifetimes`` for the
+    lifetime runs --, chunks of two
     points -- the tiny grid in one chunk: every chunk is three jobs, each a Python process
     that imports the package and loads the kernels; the tests of chunking pass
     ``chunk_size=1`` --, and ``numerics`` overrides) and ``grid.yaml``."""
@@ -54,6 +60,7 @@ def setup_workdir(path: Path, grid: dict = GRID, convergence: dict = SHORT_CONVE
     cfg["numerics"]["lyapunov"].update(SHORT_LYAPUNOV)
     cfg["convergence"] = dict(convergence)
     cfg["multistability"] = dict(multistability)
+    cfg["lifetimes"] = dict(lifetimes)
     cfg["numerics"].update({"n_transient": 4, "n_record": 128, "chunk_size": 2} | numerics)
     cfg["numerics"].setdefault("n_transient_max", cfg["numerics"]["n_transient"])
     if "n_transient_max" not in numerics:

@@ -14,6 +14,7 @@ import yaml
 from workflow_run import GRID, ROOT, setup_workdir, snakemake
 
 from analysis.lyapunov.beam import RK4_SECOND_OPINION
+from analysis.pipeline.chaos_lifetime import summary_line
 from analysis.pipeline.grid import RESULTS_VERSION
 from analysis.pipeline.stages import BY_SHAKEDOWN
 from analysis.pipeline.table import read_regime_metadata
@@ -158,6 +159,24 @@ def test_multistability_step_ships_with_the_map(first_run):
     assert meta["settings"]["perturbations"] == 1
 
 
+def test_lifetime_step_ships_with_the_map(first_run):
+    """The lifetime table holds exactly the map's cells with a label of the settings, below
+    the lock-up limit, whose runs slip (none on the tiny grid: its slipping point lies above
+    the limit), with the config hash of the map; the map figure was drawn with it."""
+    out = first_run / "results" / "regimes"
+    life = pd.read_parquet(out / "tiny" / "lifetimes.parquet")
+    table = pd.read_parquet(out / "tiny.parquet")
+    expected = table[(table["lock_ratio"] < 1.0) & (table["stick_fraction"] < 1.0) & ~table["diverged"]]
+    assert list(life["point_id"]) == list(expected["point_id"])
+    for col in ("n_escaped", "n_unproven", "n_failed", "exposure", "lifetime", "lifetime_lo", "lifetime_hi",
+                "escape_periods", "censor_periods", "lock_ratio", "f0_rel"):
+        assert col in life.columns, col
+    meta = json.loads(pq.read_schema(out / "tiny" / "lifetimes.parquet").metadata[b"beamsim.lifetimes"])
+    assert meta["config_hash"] == read_regime_metadata(out / "tiny.parquet")["config_hash"]
+    assert meta["settings"]["copies"] == 2
+    assert summary_line(life) in (first_run / "logs" / "regimes" / "tiny" / "chaos_lifetime.log").read_text()
+
+
 def test_continuation_line_ships_with_the_map(first_run):
     """A grid's line is swept up and down (each point from its neighbour's end state), with the
     line's own fixed values on top of the grid's, and drawn."""
@@ -227,7 +246,7 @@ def test_same_config_same_table_whatever_the_core_count(first_run, tmp_path):
     other = setup_workdir(tmp_path / "again", grid=GRID_L, convergence=CONVERGENCE,
                           multistability=MULTISTABILITY, chunk_size=1)
     targets = ("results/regimes/tiny.parquet", "results/regimes/tiny/attractors.parquet",
-               "results/regimes/tiny/convergence/modes.parquet")
+               "results/regimes/tiny/convergence/modes.parquet", "results/regimes/tiny/lifetimes.parquet")
     res = snakemake(other, *targets, cores=1)
     assert res.returncode == 0, res.stderr[-3000:]
     res = snakemake(first_run, *targets)  # first_run's grid restored above

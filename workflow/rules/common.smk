@@ -47,6 +47,9 @@ CONVERGENCE_SETTINGS = {"sample": CONVERGENCE.sample, "seed": CONVERGENCE.seed,
 #: the runs of a map's cells from other starts (analysis.pipeline.cell_attractors)
 MULTISTABILITY = PLAN.multistability
 MULTISTABILITY_SETTINGS = MULTISTABILITY.as_dict()
+#: the lifetime runs of a map's chaos below the lock-up limit (analysis.pipeline.chaos_lifetime)
+LIFETIMES = PLAN.lifetimes
+LIFETIME_SETTINGS = LIFETIMES.as_dict()
 #: the content-addressed per-point store (analysis.pipeline.store)
 STORE_ROOT = "results/store"
 #: the paper target (--config paper_file=..., else config/paper.yaml of the working directory,
@@ -73,9 +76,13 @@ if workflow.is_main_process:  # not in the per-job processes of a cluster execut
          MULTISTABILITY.starts_per_cell(len(GRIDS["grids"][g]["axes"])))
         for g in GRIDS["grids"] if not Path(f"results/regimes/{g}/attractors.parquet").exists()
     ]
+    PENDING_LIFETIMES = [
+        (POINTS[g], LIFETIMES)
+        for g in GRIDS["grids"] if not Path(f"results/regimes/{g}/lifetimes.parquet").exists()
+    ]
     ESTIMATE = estimate_run([p for pts in POINTS.values() for p in pts], PLAN.numerics, STORE_ROOT,
                             convergence=PENDING_CONVERGENCE, lines=PENDING_LINES,
-                            multistability=PENDING_MULTISTABILITY)
+                            multistability=PENDING_MULTISTABILITY, lifetimes=PENDING_LIFETIMES)
     logger.info(f"regimes: {ESTIMATE.summary(estimate_cores())}")
 
 
@@ -145,6 +152,11 @@ def convergence_table(wildcards) -> list[str]:
 def attractor_table(wildcards) -> list[str]:
     """The multistability table a grid's map figure draws (none when multistability is off)."""
     return [f"results/regimes/{wildcards.grid}/attractors.parquet"] if MULTISTABILITY.active else []
+
+
+def lifetime_table(wildcards) -> list[str]:
+    """The lifetime table a grid's map figure marks (none when the lifetime step is off)."""
+    return [f"results/regimes/{wildcards.grid}/lifetimes.parquet"] if LIFETIMES.active else []
 
 
 def mode_key() -> str:

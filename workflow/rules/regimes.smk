@@ -154,6 +154,28 @@ rule cell_attractors:
         "../scripts/cell_attractors.py"
 
 
+rule chaos_lifetime:
+    input:
+        table="results/regimes/{grid}.parquet",
+        simulate=lambda wc: chunk_files(wc.grid, "simulate"),
+        modes=grid_mode_files,
+        kernels=ancient("results/kernels/simulate.done"),
+    output:
+        table="results/regimes/{grid}/lifetimes.parquet",
+    params:
+        numerics=RESULT_NUMERICS,
+        settings=LIFETIME_SETTINGS,
+        axes=lambda wc: list(GRIDS["grids"][wc.grid]["axes"]),
+        config_hash=CONFIG_HASH,
+    threads: 1
+    log:
+        "logs/regimes/{grid}/chaos_lifetime.log",
+    conda:
+        "../envs/beamsim.yaml"
+    script:
+        "../scripts/chaos_lifetime.py"
+
+
 rule convergence_table:
     input:
         runs=convergence_files,
@@ -240,6 +262,7 @@ rule regime_figures:
         table="results/regimes/{grid}.parquet",
         convergence=convergence_table,
         attractors=attractor_table,
+        lifetimes=lifetime_table,
     output:
         regimes=report(
             "results/regimes/{grid}/regimes.png",
@@ -298,5 +321,7 @@ rule regimes:
                grid=list(GRIDS["grids"]) if CONVERGENCE.active else []),
         expand("results/regimes/{grid}/attractors.parquet",
                grid=list(GRIDS["grids"]) if MULTISTABILITY.active else []),
+        expand("results/regimes/{grid}/lifetimes.parquet",
+               grid=list(GRIDS["grids"]) if LIFETIMES.active else []),
         line_files(".parquet"),
         line_files(".png"),

@@ -17,7 +17,8 @@ runs = [pd.read_parquet(f) for f in snakemake.input.convergence]
 evidence = summary_line(convergence_summary(runs[0]) if runs else None)
 attractors = pd.read_parquet(snakemake.input.attractors[0]) if snakemake.input.attractors else None
 multistability = cell_attractors.summary_line(cell_attractors.cell_summary(attractors))
+lifetimes = pd.read_parquet(snakemake.input.lifetimes[0]) if snakemake.input.lifetimes else None
 plot_regimes(table, name, grid, snakemake.output.regimes, dpi=dpi, evidence=evidence + "; " + multistability,
-             attractors=attractors)
+             attractors=attractors, lifetimes=lifetimes)
 plot_lle(table, name, grid, snakemake.output.lle, dpi=dpi,
          resolution=lle_resolution(snakemake.params.numerics), evidence=evidence)

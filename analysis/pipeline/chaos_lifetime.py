@@ -1,0 +1,236 @@
+r"""Lifetimes of a map's chaos below the lock-up limit: attractor or long transient?
+
+Below a cell's lock-up limit (``lock_ratio`` < 1) a locked period-1 orbit exists beside
+whatever the start from rest reached (:func:`beamsim.shakedown.locked_orbit`, docs/model.md
+section 7); above the shakedown limit a motion may still slip for ever.  So a chaotic record
+there may be a chaotic attractor or a chaotic saddle that the beam leaves, after a random
+time, for a locked orbit.  One run cannot tell the two apart; many can.
+:func:`chaos_lifetimes` runs ``copies`` copies of every such cell (by default its chaotic
+ones) from the map's end state, each perturbed by a seeded random ``perturbation`` (relative
+to the largest coordinate and velocity), for ``periods`` forcing periods with the map's
+integrator and step, and records per copy
+
+* the period after which it never slipped again (no friction dissipation in any later
+  period), and whether the stuck state at the end is **proven** to last (the bound of
+  :func:`analysis.pipeline.stages.stuck_bound` below 1): then the copy **escaped** to a locked
+  orbit at that time;
+* otherwise its censoring time: the run's end if it still slips there, the start of its
+  final stuck stretch if that stretch is not proven to last (``n_unproven``).
+
+Copies that diverged or met ``expo``'s Zeno guard are left out and counted (``n_failed``).
+The mean lifetime follows from the escape and censoring times
+(:func:`analysis.lifetimes.exponential_lifetime`: escape rate, mean lifetime and its 95 %
+interval in forcing periods; with no escape, a lower bound).  The copies decorrelate within a
+few Lyapunov times (``ln(1 / perturbation) / (lambda_1 T)`` periods, 20-70 at the default
+grid's chaos), which is short against the lifetimes measured.
+
+What it does not measure: escapes to another slipping attractor (a copy that leaves the
+chaotic set for a slipping periodic orbit is counted as surviving), and lifetimes of chaos
+above the lock-up limit, where no locked orbit exists.  Deterministic: the perturbations are
+seeded by the settings' seed and the cell's grid index, and each copy's run depends on its own
+start only (not on the number of threads).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from analysis.lifetimes import exponential_lifetime
+from analysis.pipeline.config import Numerics, as_numerics
+from analysis.regimes import CHAOTIC, UNSETTLED
+from analysis.regimes import LABELS as REGIME_LABELS
+
+__all__ = ["LifetimeSettings", "chaos_lifetimes", "copy_starts", "copy_outcome", "lifetime_cells",
+           "summary_line", "write_lifetime_table"]
+
+#: labels a setting may name (the classifier's, and a record still transient at the cap)
+LABELS = (*REGIME_LABELS, UNSETTLED)
+
+
+@dataclass(frozen=True)
+class LifetimeSettings:
+    """The ``lifetimes`` section of the config.
+
+    labels : the map labels whose cells below the lock-up limit are run (default: chaotic).
+    copies : perturbed copies per cell (0: the step is off).
+    periods : forcing periods each copy runs.
+    perturbation : size of the perturbation, relative to the largest coordinate and the
+        largest velocity of the map's end state.
+    max_cells : at most this many cells per grid (the first in grid order).
+    seed : seed of the perturbations (combined with the cell's grid index).
+    """
+
+    labels: tuple[str, ...] = (CHAOTIC,)
+    copies: int = 8
+    periods: int = 2000
+    perturbation: float = 1e-6
+    max_cells: int = 40
+    seed: int = 0
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any] | None) -> LifetimeSettings:
+        d = dict(d or {})
+        allowed = ["copies", "labels", "max_cells", "periods", "perturbation", "seed"]
+        unknown = set(d) - set(allowed)
+        if unknown:
+            raise ValueError(f"lifetimes: unknown key(s) {sorted(unknown)}; allowed: {allowed}")
+        labels = d.pop("labels", [CHAOTIC])
+        if (not isinstance(labels, (list, tuple)) or not labels
+                or any(lab not in LABELS for lab in labels)):
+            raise ValueError(f"lifetimes.labels = {labels!r}; allowed: a non-empty list of {list(LABELS)}")
+        out = cls(labels=tuple(labels), **d)
+        for key, lo, hi in (("copies", 0, 256), ("periods", 1, 10**6), ("max_cells", 1, 10**5),
+                            ("seed", 0, 2**32 - 1)):
+            v = getattr(out, key)
+            if not (isinstance(v, int) and not isinstance(v, bool) and lo <= v <= hi):
+                raise ValueError(f"lifetimes.{key} = {v!r}; allowed: an integer {lo}..{hi}")
+        p = out.perturbation
+        if not (isinstance(p, (int, float)) and not isinstance(p, bool) and 0.0 < p <= 0.1):
+            raise ValueError(f"lifetimes.perturbation = {p!r}; allowed: 0 < perturbation <= 0.1")
+        return out
+
+    @property
+    def active(self) -> bool:
+        """Whether any copy runs."""
+        return self.copies > 0
+
+    def as_dict(self) -> dict:
+        return {"labels": list(self.labels), "copies": self.copies, "periods": self.periods,
+                "perturbation": self.perturbation, "max_cells": self.max_cells, "seed": self.seed}
+
+
+def lifetime_cells(table: pd.DataFrame, settings: LifetimeSettings) -> pd.DataFrame:
+    """The rows of a regime table whose cells are run: a label of ``settings.labels``, below the
+    lock-up limit (``lock_ratio`` < 1), a run that slips (``stick_fraction`` < 1) and did not
+    diverge; the first ``settings.max_cells`` in grid order."""
+    lock = pd.to_numeric(table["lock_ratio"], errors="coerce")
+    slips = pd.to_numeric(table["stick_fraction"], errors="coerce") < 1.0
+    keep = table["label"].isin(settings.labels) & (lock < 1.0) & slips & ~table["diverged"].astype(bool)
+    return table[keep].head(settings.max_cells)
+
+
+def copy_starts(params: dict, final_state: Sequence[float], index: Sequence[int],
+                settings: LifetimeSettings) -> list[dict]:
+    """``settings.copies`` point parameter dicts started from ``final_state`` (the map's end
+    state, kernels' layout ``(q, v, z, mode)``), coordinates and velocities perturbed by
+    ``perturbation`` times their largest magnitude times a standard normal draw (seeded by
+    ``settings.seed`` and the grid ``index``); slips and stick flags unchanged."""
+    from beamsim.simulate import prepare_point, state_params
+
+    x0 = np.asarray(final_state, dtype=float)
+    n = prepare_point(**params).model.n
+    rng = np.random.default_rng([settings.seed, *(int(i) for i in index)])
+    sq, sv = float(np.abs(x0[:n]).max()), float(np.abs(x0[n:2 * n]).max())
+    out = []
+    for _ in range(settings.copies):
+        x = x0.copy()
+        x[:n] += settings.perturbation * sq * rng.standard_normal(n)
+        x[n:2 * n] += settings.perturbation * sv * rng.standard_normal(n)
+        out.append(state_params(params, x, n))
+    return out
+
+
+def copy_outcome(result, params: dict) -> tuple[str, float]:
+    """One copy's run (a :class:`beamsim.results.SimResult` started at ``t = 0``): ``("escaped",
+    t)`` if it never slips after ``t`` periods and its end state is proven to stay stuck,
+    ``("unproven", t)`` if it never slips after ``t`` but the proof fails, ``("slipping", N)``
+    if it slips in its last period (``N`` its periods), ``("failed", nan)`` if it diverged or
+    met ``expo``'s Zeno guard."""
+    from analysis.pipeline.stages import stuck_bound
+    from beamsim.simulate import prepare_point
+
+    if result.diverged or result.n_zeno > 0 or not np.all(np.isfinite(result.energy[:, 1])):
+        return "failed", np.nan
+    diss = result.diss_per_cycle
+    slipping = np.flatnonzero(diss != 0.0)
+    quiet = int(slipping[-1]) + 1 if slipping.size else 0
+    if quiet >= diss.size:
+        return "slipping", float(diss.size)
+    bound = stuck_bound(prepare_point(**params), result.final_state)
+    return ("escaped" if bound < 1.0 else "unproven"), float(quiet)
+
+
+def _cell_row(row: pd.Series, outcomes: list[tuple[str, float]], axes: Sequence[str],
+              settings: LifetimeSettings) -> dict:
+    kinds = [k for k, _ in outcomes]
+    used = [(k, t) for k, t in outcomes if k != "failed"]
+    est = exponential_lifetime([t for _, t in used], [k == "escaped" for k, _ in used])
+    T = 2.0 * np.pi / float(row["omega"])
+    return {"point_id": row["point_id"], **{a: row[a] for a in axes},
+            **{c: int(row[c]) for c in row.index if c.startswith("index_")},
+            "label": row["label"], "lle_T": float(row["lle_mean"]) * T,
+            "lock_ratio": float(row["lock_ratio"]), "shakedown_ratio": float(row["shakedown_ratio"]),
+            "copies": settings.copies, "periods": settings.periods,
+            "n_escaped": kinds.count("escaped"), "n_unproven": kinds.count("unproven"),
+            "n_failed": kinds.count("failed"), "exposure": est.exposure, "escape_rate": est.rate,
+            "lifetime": est.lifetime, "lifetime_lo": est.lifetime_lo, "lifetime_hi": est.lifetime_hi,
+            "escape_periods": sorted(int(t) for k, t in used if k == "escaped"),
+            "censor_periods": sorted(int(t) for k, t in used if k != "escaped")}
+
+
+def chaos_lifetimes(table: pd.DataFrame, simulated: pd.DataFrame, numerics: Numerics | dict,
+                    settings: LifetimeSettings, axes: Sequence[str], threads: int = 1) -> pd.DataFrame:
+    """One row per cell of :func:`lifetime_cells` (grid order): the map's label, ``lle_T``,
+    ``lock_ratio``, ``shakedown_ratio``, the copies' outcomes (``n_escaped``, ``n_unproven``,
+    ``n_failed``, ``escape_periods``, ``censor_periods``) and the exponential estimate
+    (``exposure``, ``escape_rate`` per period, ``lifetime``, ``lifetime_lo``, ``lifetime_hi``
+    in forcing periods; :func:`analysis.lifetimes.exponential_lifetime`).
+
+    ``simulated``: the map's simulate records (``point_id``, ``final_state``)."""
+    from analysis.pipeline.stages import integrator
+    from beamsim.pattern_store import PatternStore
+    from beamsim.simulate import simulate_batch
+
+    nm = as_numerics(numerics)
+    cells = lifetime_cells(table, settings)
+    finals = simulated.set_index("point_id")["final_state"]
+    store = PatternStore()
+    rows = []
+    for _, row in cells.iterrows():
+        params = json.loads(row["params_json"])
+        index = [row[c] for c in row.index if c.startswith("index_")]
+        starts = copy_starts(params, finals.loc[row["point_id"]], index, settings)
+        batch = simulate_batch(starts, n_transient=0, n_record=settings.periods,
+                               method=integrator(nm.method, params), steps_per_period=nm.steps_per_period,
+                               step_factor=nm.step_factor, n_threads=threads, pattern_store=store)
+        outcomes = [copy_outcome(r, p) for r, p in zip(batch.results, starts)]
+        rows.append(_cell_row(row, outcomes, axes, settings))
+    columns = ["point_id", *axes, "label", "lle_T", "lock_ratio", "shakedown_ratio", "copies", "periods",
+               "n_escaped", "n_unproven", "n_failed", "exposure", "escape_rate", "lifetime", "lifetime_lo",
+               "lifetime_hi", "escape_periods", "censor_periods"]
+    return pd.DataFrame(rows) if rows else pd.DataFrame(columns=columns)
+
+
+def summary_line(lifetimes: pd.DataFrame | None) -> str:
+    """One clause for a map's legend or title: the cells run, those whose copies escaped to a
+    locked orbit (a transient), and the least lower bound on the others' mean lifetimes."""
+    if lifetimes is None:
+        return "lifetimes not measured"
+    if lifetimes.empty:
+        return "no cell run for its lifetime (none below the lock-up limit with the labels set)"
+    esc = lifetimes[lifetimes["n_escaped"] > 0]
+    out = f"lifetimes of {len(lifetimes)} cells below the lock-up limit: {len(esc)} ended locked (a transient"
+    if len(esc):
+        out += f", mean lifetimes {esc['lifetime'].min():.0f}-{esc['lifetime'].max():.0f} periods"
+    out += ")"
+    rest = lifetimes[lifetimes["n_escaped"] == 0]
+    if len(rest):
+        out += f", {len(rest)} did not (mean lifetime > {rest['lifetime_lo'].min():.0f} periods)"
+    return out
+
+
+def write_lifetime_table(lifetimes: pd.DataFrame, path: str, *, grid_name: str, settings: dict,
+                         config_hash: str) -> None:
+    """Write the lifetime table to Parquet (atomically) with ``beamsim.lifetimes`` metadata
+    (:func:`analysis.pipeline.convergence.run_metadata`)."""
+    from analysis.pipeline.atomic import write_parquet
+    from analysis.pipeline.convergence import run_metadata
+
+    meta = run_metadata(grid_name, settings, config_hash)
+    write_parquet(lifetimes, path, metadata={"beamsim.lifetimes": meta})

@@ -1,0 +1,127 @@
+"""analysis.pipeline.chaos_lifetime: copies of a cell below its lock-up limit run until they
+lock; against the shakedown theorem (below the shakedown limit every motion locks), the
+selection of cells, the seeded copies and the settings' checks."""
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from analysis.lifetimes import exponential_lifetime
+from analysis.pipeline.chaos_lifetime import (
+    LifetimeSettings,
+    chaos_lifetimes,
+    copy_starts,
+    lifetime_cells,
+    summary_line,
+)
+from beamsim.point import prepare_point
+from beamsim.shakedown import locked_orbit, shakedown_ratio
+
+#: the one-mode point of tests/beamsim/test_shakedown.py (the default grid's friction)
+POINT = {"n_modes": 1, "mu_s": 0.45, "mu_k": 0.3, "interface_viscosity": 0.0939, "Omega": 2.5}
+NUMERICS = {"method": "expo"}
+
+
+def _row(target: float, index: int, label: str = "chaotic") -> tuple[dict, np.ndarray]:
+    """A map row at ``target`` times the shakedown load of ``POINT``, its end state a start far
+    off the locked orbit (a velocity kick of 30 times the orbit's scale in the slowest stuck
+    mode: it slips for many periods)."""
+    pp0 = prepare_point(**POINT, f0_rel=0.8)
+    params = POINT | {"f0_rel": 0.8 * target / shakedown_ratio(pp0)}
+    pp = prepare_point(**params)
+    orbit = locked_orbit(pp)
+    n = pp.model.n
+    _, phi = pp.model.eig_stuck
+    x = orbit.state.copy()
+    x[n:2 * n] += 30 * pp.omega * np.abs(x[:n]).max() * phi[:, 0] / np.abs(phi[:, 0]).max()
+    row = {"point_id": f"p{index}", "Omega": params["Omega"], "f0_rel": params["f0_rel"], "index_0": index,
+           "label": label, "lle_mean": 0.01, "omega": pp.omega, "lock_ratio": float(orbit.ratio.max()),
+           "shakedown_ratio": shakedown_ratio(pp), "stick_fraction": 0.9, "diverged": False,
+           "params_json": json.dumps(params)}
+    return row, x
+
+
+def test_below_the_shakedown_limit_every_copy_locks_and_is_proven_to_stay():
+    """At half the shakedown limit the theorem says every motion stops slipping: every copy
+    escapes (to a locked orbit whose stuck state the bound proves), after a slipping start of
+    tens of periods, and the estimate is that of its escape times."""
+    row, x = _row(0.5, 0)
+    sim = pd.DataFrame({"point_id": ["p0"], "final_state": [x]})
+    st = LifetimeSettings.from_dict({"copies": 3, "periods": 300})
+    out = chaos_lifetimes(pd.DataFrame([row]), sim, NUMERICS, st, ["Omega", "f0_rel"])
+    r = out.iloc[0]
+    assert r["n_escaped"] == 3 and r["n_unproven"] == 0 and r["n_failed"] == 0
+    assert all(20 < t < 300 for t in r["escape_periods"])
+    est = exponential_lifetime(r["escape_periods"], [True] * 3)
+    assert r["lifetime"] == pytest.approx(est.lifetime) and r["exposure"] == sum(r["escape_periods"])
+    assert "1 ended locked" in summary_line(out)
+
+
+def test_a_stuck_end_the_bound_does_not_prove_is_censored_where_the_stuck_stretch_starts():
+    """At 0.9 of the shakedown limit the same start slips for about 200 periods and then stays
+    stuck to the run's end, but the bound on its future tractions (a sum over the stuck modes'
+    free vibration, which the kick left large) stays above 1: no escape is counted; each copy
+    is censored where its stuck stretch starts (known on the slipping set until then)."""
+    row, x = _row(0.9, 0)
+    sim = pd.DataFrame({"point_id": ["p0"], "final_state": [x]})
+    st = LifetimeSettings.from_dict({"copies": 2, "periods": 300})
+    r = chaos_lifetimes(pd.DataFrame([row]), sim, NUMERICS, st, ["Omega", "f0_rel"]).iloc[0]
+    assert r["n_escaped"] == 0 and r["n_unproven"] == 2
+    assert all(100 < t < 300 for t in r["censor_periods"]) and r["exposure"] == sum(r["censor_periods"])
+
+
+def test_a_copy_that_still_slips_is_censored_at_the_horizon():
+    """The same start at 0.9 of the shakedown limit run for fewer periods than it slips: no
+    escape, every copy censored at the horizon, and the mean lifetime bounded from below."""
+    row, x = _row(0.9, 0)
+    sim = pd.DataFrame({"point_id": ["p0"], "final_state": [x]})
+    st = LifetimeSettings.from_dict({"copies": 2, "periods": 10})
+    r = chaos_lifetimes(pd.DataFrame([row]), sim, NUMERICS, st, ["Omega", "f0_rel"]).iloc[0]
+    assert r["n_escaped"] == 0 and list(r["censor_periods"]) == [10, 10]
+    assert r["lifetime"] == np.inf and r["lifetime_lo"] == pytest.approx(20 / 3.6889, rel=1e-4)
+    assert "did not (mean lifetime > 5 periods)" in summary_line(pd.DataFrame([r]))
+
+
+def test_cells_are_those_below_the_lock_up_limit_that_slip_with_the_labels_set():
+    rows = [_row(0.9, i)[0] for i in range(5)]
+    rows[1]["lock_ratio"] = 1.02          # above the lock-up limit: no locked orbit to escape to
+    rows[2]["stick_fraction"] = 1.0       # the map's run is locked itself
+    rows[3]["label"] = "quasi-periodic"
+    rows[4]["diverged"] = True
+    table = pd.DataFrame(rows)
+    assert list(lifetime_cells(table, LifetimeSettings())["point_id"]) == ["p0"]
+    both = LifetimeSettings.from_dict({"labels": ["chaotic", "quasi-periodic"]})
+    assert list(lifetime_cells(table, both)["point_id"]) == ["p0", "p3"]
+    first = LifetimeSettings.from_dict({"max_cells": 1, "labels": ["quasi-periodic", "chaotic"]})
+    assert list(lifetime_cells(table, first)["point_id"]) == ["p0"]  # the first in grid order
+
+
+def test_copies_are_seeded_by_the_cell_and_perturb_only_coordinates_and_velocities():
+    row, x = _row(0.9, 0)
+    params = json.loads(row["params_json"])
+    st = LifetimeSettings.from_dict({"copies": 3, "perturbation": 1e-6})
+    a, b = copy_starts(params, x, [4, 7], st), copy_starts(params, x, [4, 7], st)
+    c = copy_starts(params, x, [4, 8], st)
+    n = prepare_point(**params).model.n
+    for s, t in zip(a, b):
+        assert np.array_equal(s["q0"], t["q0"]) and np.array_equal(s["v0"], t["v0"])
+    assert not np.array_equal(a[0]["q0"], c[0]["q0"]) and not np.array_equal(a[0]["q0"], a[1]["q0"])
+    rel = np.abs(a[0]["q0"] - x[:n]).max() / np.abs(x[:n]).max()
+    assert 1e-8 < rel < 1e-5
+    nq = (x.size - 2 * n) // 2
+    assert np.array_equal(a[0]["z0"], x[2 * n:2 * n + nq]) and np.array_equal(a[0]["mode0"], x[2 * n + nq:])
+
+
+@pytest.mark.parametrize("bad, match", [
+    ({"copies": -1}, "lifetimes.copies"), ({"periods": 0}, "lifetimes.periods"),
+    ({"perturbation": 0.5}, "lifetimes.perturbation"), ({"labels": ["chaos"]}, "lifetimes.labels"),
+    ({"labels": []}, "lifetimes.labels"), ({"sample": 3}, "unknown key"),
+    ({"copies": True}, "lifetimes.copies"),
+])
+def test_settings_refuse_bad_values_naming_the_key(bad, match):
+    with pytest.raises(ValueError, match=match):
+        LifetimeSettings.from_dict(bad)
+    assert LifetimeSettings.from_dict({"copies": 0}).active is False
+    assert LifetimeSettings.from_dict(LifetimeSettings().as_dict()) == LifetimeSettings()
