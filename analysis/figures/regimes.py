@@ -113,7 +113,7 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
     only where the map has such cells.  With a ``lock_ratio`` column, a dashed line marks the
     lock-up limit and a dotted one the shakedown limit (:func:`_draw_limits`).  ``lifetimes``: the
     lifetime table (:func:`analysis.pipeline.chaos_lifetime.chaos_lifetimes`): a triangle marks
-    each cell measured, filled white where copies of its motion ended locked (a transient),
+    each cell measured, filled black where copies of its motion ended locked (a transient),
     open where none did (:func:`_mark_lifetimes`)."""
     axes = list(grid["axes"])
     keys = table.apply(_label_key, axis=1)
@@ -257,13 +257,13 @@ def _draw_limits(ax, table: pd.DataFrame, keys: pd.Series, xs: np.ndarray | None
 
 
 def _mark_lifetimes(ax, lifetimes: pd.DataFrame, xa: str, ya: str | None, handles: list) -> None:
-    """A triangle on each cell of the lifetime table (at the top of a 1-D diagram): filled white
+    """A triangle on each cell of the lifetime table (at the top of a 1-D diagram): filled black
     where some copies ended locked (the motion is a transient there), open where none did; the
     legend gives the counts and the measured mean lifetimes or their least lower bound."""
     if lifetimes.empty:
         return
     done = lifetimes["n_escaped"] > 0
-    for sel, face, text in ((done, "white", "copies ended locked: a transient"),
+    for sel, face, text in ((done, "black", "copies ended locked: a transient"),
                             (~done, "none", "no copy ended locked")):
         part = lifetimes[sel]
         if part.empty:
@@ -272,12 +272,12 @@ def _mark_lifetimes(ax, lifetimes: pd.DataFrame, xa: str, ya: str | None, handle
             y, kw = np.ones(len(part)), {"transform": ax.get_xaxis_transform(), "clip_on": False}
         else:
             y, kw = part[ya].to_numpy(), {}
-        ax.plot(part[xa], y, "v", ms=4, mfc=face, mec="black", mew=0.6, ls="", **kw)
-        if face == "white":
+        ax.plot(part[xa], y, "v", ms=5, mfc=face, mec="black", mew=0.6, ls="", **kw)
+        if face == "black":
             life = f"mean lifetime {part['lifetime'].min():.0f}-{part['lifetime'].max():.0f} T"
         else:
             life = f"mean lifetime > {part['lifetime_lo'].min():.0f} T"
-        handles.append(plt.Line2D([], [], marker="v", ms=4, mfc=face, mec="black", ls="",
+        handles.append(plt.Line2D([], [], marker="v", ms=5, mfc=face, mec="black", ls="",
                                   label=f"{text} ({len(part)}; {life})"))
 
 

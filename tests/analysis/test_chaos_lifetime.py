@@ -72,6 +72,15 @@ def test_a_stuck_end_the_bound_does_not_prove_is_censored_where_the_stuck_stretc
     assert all(100 < t < 300 for t in r["censor_periods"]) and r["exposure"] == sum(r["censor_periods"])
 
 
+def test_the_table_does_not_depend_on_the_thread_count():
+    rows = [_row(0.9, 0), _row(0.5, 1)]
+    table = pd.DataFrame([r for r, _ in rows])
+    sim = pd.DataFrame({"point_id": ["p0", "p1"], "final_state": [x for _, x in rows]})
+    st = LifetimeSettings.from_dict({"copies": 3, "periods": 120})
+    one, two = (chaos_lifetimes(table, sim, NUMERICS, st, ["Omega", "f0_rel"], threads=k) for k in (1, 2))
+    pd.testing.assert_frame_equal(one, two, check_exact=True)
+
+
 def test_a_copy_that_still_slips_is_censored_at_the_horizon():
     """The same start at 0.9 of the shakedown limit run for fewer periods than it slips: no
     escape, every copy censored at the horizon, and the mean lifetime bounded from below."""
