@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
+from kicked_start import kicked_locked_orbit
 
 from analysis.lifetimes import exponential_lifetime
 from analysis.pipeline.chaos_lifetime import (
@@ -32,10 +33,7 @@ def _row(target: float, index: int, label: str = "chaotic") -> tuple[dict, np.nd
     params = POINT | {"f0_rel": 0.8 * target / shakedown_ratio(pp0)}
     pp = prepare_point(**params)
     orbit = locked_orbit(pp)
-    n = pp.model.n
-    _, phi = pp.model.eig_stuck
-    x = orbit.state.copy()
-    x[n:2 * n] += 30 * pp.omega * np.abs(x[:n]).max() * phi[:, 0] / np.abs(phi[:, 0]).max()
+    x = kicked_locked_orbit(pp)
     row = {"point_id": f"p{index}", "Omega": params["Omega"], "f0_rel": params["f0_rel"], "index_0": index,
            "label": label, "lle_mean": 0.01, "omega": pp.omega, "lock_ratio": float(orbit.ratio.max()),
            "shakedown_ratio": shakedown_ratio(pp), "stick_fraction": 0.9, "diverged": False,

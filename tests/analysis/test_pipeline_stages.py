@@ -253,10 +253,12 @@ def test_a_slipping_record_below_the_shakedown_limit_is_continued_until_it_stops
     rule (its samples decide).
     The same start at 1.3 of the limit is not held back by this rule (a record that slips
     there can be on an attractor)."""
+    from kicked_start import kicked_locked_orbit
+
     from analysis.pipeline.config import Numerics
     from analysis.pipeline.stages import locked_ratios, records_table, simulate_runs, unsettled_reason
     from beamsim.point import prepare_point
-    from beamsim.shakedown import locked_orbit
+    from beamsim.simulate import state_params
 
     base = {"n_modes": 1, "mu_s": 0.45, "mu_k": 0.3, "interface_viscosity": 0.0939, "Omega": 2.5,
             "f0_rel": 0.8}
@@ -265,11 +267,7 @@ def test_a_slipping_record_below_the_shakedown_limit_is_continued_until_it_stops
     def kicked(target: float) -> dict:
         p = base | {"f0_rel": base["f0_rel"] * target / rk}
         pp = prepare_point(**p)
-        x = locked_orbit(pp).state
-        n, nq = pp.model.n, pp.model.n_quad
-        _, phi = pp.model.eig_stuck
-        v = x[n:2 * n] + 30 * pp.omega * np.abs(x[:n]).max() * phi[:, 0] / np.abs(phi[:, 0]).max()
-        return p | {"q0": x[:n], "v0": v, "z0": x[2 * n:2 * n + nq], "mode0": x[2 * n + nq:]}
+        return state_params(p, kicked_locked_orbit(pp), pp.model.n)
 
     nm = Numerics(n_transient=20, n_record=32, n_transient_max=400, continuation_check=False)
     p = kicked(0.9)

@@ -3,6 +3,7 @@ linear flow (matrix exponential, scipy) and against the integrator (whether elem
 
 import numpy as np
 import pytest
+from kicked_start import kicked_locked_orbit
 from scipy.linalg import expm
 
 from beamsim.point import prepare_point
@@ -268,9 +269,7 @@ def test_below_the_shakedown_limit_every_motion_stops_slipping(method):
         pp = prepare_point(**point)
         orbit = locked_orbit(pp)
         n = pp.model.n
-        _, phi = pp.model.eig_stuck
-        x = orbit.state.copy()
-        x[n:2 * n] += 30 * pp.omega * np.abs(x[:n]).max() * phi[:, 0] / np.abs(phi[:, 0]).max()
+        x = kicked_locked_orbit(pp)
         energy, slipping = [_difference_energy(pp, x, orbit.state)], []
         for _ in range(250):
             r = simulate(**state_params(point, x, n), n_transient=0, n_record=1, method=method)
