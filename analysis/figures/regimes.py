@@ -274,7 +274,9 @@ def _mark_lifetimes(ax, lifetimes: pd.DataFrame, xa: str, ya: str | None, handle
             y, kw = part[ya].to_numpy(), {}
         ax.plot(part[xa], y, "v", ms=5, mfc=face, mec="black", mew=0.6, ls="", **kw)
         if face == "black":
-            life = f"mean lifetime {part['lifetime'].min():.0f}-{part['lifetime'].max():.0f} T"
+            from analysis.pipeline.chaos_lifetime import lifetime_range
+
+            life = f"mean lifetime {lifetime_range(part['lifetime'])} T"
         else:
             life = f"mean lifetime > {part['lifetime_lo'].min():.0f} T"
         handles.append(plt.Line2D([], [], marker="v", ms=5, mfc=face, mec="black", ls="",

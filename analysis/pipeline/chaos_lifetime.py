@@ -21,8 +21,9 @@ Copies that diverged or met ``expo``'s Zeno guard are left out and counted (``n_
 The mean lifetime follows from the escape and censoring times
 (:func:`analysis.lifetimes.exponential_lifetime`: escape rate, mean lifetime and its 95 %
 interval in forcing periods; with no escape, a lower bound).  The copies decorrelate within a
-few Lyapunov times (``ln(1 / perturbation) / (lambda_1 T)`` periods, 20-70 at the default
-grid's chaos), which is short against the lifetimes measured.
+few Lyapunov times (``ln(1 / perturbation) / (lambda_1 T)`` periods), which must be short
+against the lifetimes measured (docs/pipeline.md, "Lifetimes of the chaos below the lock-up
+limit", gives both for the default map).
 
 What it does not measure: escapes to another slipping attractor (a copy that leaves the
 chaotic set for a slipping periodic orbit is counted as surviving), and lifetimes of chaos
@@ -47,7 +48,7 @@ from analysis.regimes import CHAOTIC, UNSETTLED
 from analysis.regimes import LABELS as REGIME_LABELS
 
 __all__ = ["LifetimeSettings", "chaos_lifetimes", "copy_starts", "copy_outcome", "lifetime_cells",
-           "summary_line", "write_lifetime_table"]
+           "lifetime_range", "summary_line", "write_lifetime_table"]
 
 #: labels a setting may name (the classifier's, and a record still transient at the cap)
 LABELS = (*REGIME_LABELS, UNSETTLED)
@@ -207,6 +208,12 @@ def chaos_lifetimes(table: pd.DataFrame, simulated: pd.DataFrame, numerics: Nume
     return pd.DataFrame(rows) if rows else pd.DataFrame(columns=columns)
 
 
+def lifetime_range(lifetimes: pd.Series) -> str:
+    """``"lo-hi"`` of finite mean lifetimes rounded to periods, or one number when they round alike."""
+    lo, hi = f"{lifetimes.min():.0f}", f"{lifetimes.max():.0f}"
+    return lo if lo == hi else f"{lo}-{hi}"
+
+
 def summary_line(lifetimes: pd.DataFrame | None) -> str:
     """One clause for a map's legend or title: the cells run, those whose copies escaped to a
     locked orbit (a transient), and the least lower bound on the others' mean lifetimes."""
@@ -217,7 +224,7 @@ def summary_line(lifetimes: pd.DataFrame | None) -> str:
     esc = lifetimes[lifetimes["n_escaped"] > 0]
     out = f"lifetimes of {len(lifetimes)} cells below the lock-up limit: {len(esc)} ended locked (a transient"
     if len(esc):
-        out += f", mean lifetimes {esc['lifetime'].min():.0f}-{esc['lifetime'].max():.0f} periods"
+        out += f", mean lifetimes {lifetime_range(esc['lifetime'])} periods"
     out += ")"
     rest = lifetimes[lifetimes["n_escaped"] == 0]
     if len(rest):

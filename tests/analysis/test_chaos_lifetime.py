@@ -54,7 +54,7 @@ def test_below_the_shakedown_limit_every_copy_locks_and_is_proven_to_stay():
     assert all(20 < t < 300 for t in r["escape_periods"])
     est = exponential_lifetime(r["escape_periods"], [True] * 3)
     assert r["lifetime"] == pytest.approx(est.lifetime) and r["exposure"] == sum(r["escape_periods"])
-    assert "1 ended locked" in summary_line(out)
+    assert f"1 ended locked (a transient, mean lifetimes {r['lifetime']:.0f} periods)" in summary_line(out)
 
 
 def test_a_stuck_end_the_bound_does_not_prove_is_censored_where_the_stuck_stretch_starts():
