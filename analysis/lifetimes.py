@@ -9,17 +9,20 @@ independent trajectories observed each up to its own horizon: ``d`` of them esca
 times ``t_i``, the others are right-censored at the time they were last known on the set.
 
 Maximum likelihood: ``kappa_hat = d / S`` with ``S`` the total time observed on the set (the
-escape times plus the censoring times).  The 95 % interval is the exact Poisson interval of
-``d`` events in an exposure ``S`` (Garwood 1936; Cox & Oakes, *Analysis of Survival Data*,
+escape times plus the censoring times).  The 95 % interval is Garwood's (1936) Poisson
+interval for ``d`` events in an exposure ``S`` (Cox & Oakes, *Analysis of Survival Data*,
 1984, section 3.3): ``kappa`` in ``[chi2_{a/2}(2 d) / (2 S), chi2_{1-a/2}(2 d + 2) / (2 S)]``;
-exact for a fixed number of events or a fixed total exposure, the standard (slightly
-conservative) interval under the fixed horizons used here.  With ``d = 0`` the point estimate
-of ``tau`` is infinite and the interval's lower end ``2 S / chi2_{1-a/2}(2)`` (``S / 3.69`` at
-95 %) is a lower bound on the mean lifetime.
+it is conservative (covers at least its level) for a Poisson count in a fixed exposure, and
+under the fixed horizons used here its coverage is measured in the tests.  With ``d = 0`` the
+point estimate of ``tau`` is infinite and the interval's lower end ``2 S / chi2_{1-a/2}(2)``
+(``S / 3.69`` at 95 %) is a lower bound on the mean lifetime.
 
-Units are those of the times given (forcing periods in the pipeline).  Escape is counted at
-the resolution of the times; the model assumes a memoryless escape, which holds after the
-trajectories have decorrelated (a few Lyapunov times after a perturbed start).
+Units are those of the times given (forcing periods in the pipeline).  With escape times
+counted in whole units (the period in which a trajectory last slips, plus one), ``d / S`` is
+exactly the maximum-likelihood escape probability per unit (a geometric lifetime, mean ``S /
+d``); it equals the continuous rate ``kappa`` to first order in ``kappa`` times the unit.  The
+model assumes a memoryless escape, which holds after the trajectories have decorrelated (a few
+Lyapunov times after a perturbed start).
 """
 
 from __future__ import annotations

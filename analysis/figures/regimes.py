@@ -113,8 +113,8 @@ def plot_regimes(table: pd.DataFrame, grid_name: str, grid: dict, path: str, dpi
     only where the map has such cells.  With a ``lock_ratio`` column, a dashed line marks the
     lock-up limit and a dotted one the shakedown limit (:func:`_draw_limits`).  ``lifetimes``: the
     lifetime table (:func:`analysis.pipeline.chaos_lifetime.chaos_lifetimes`): a triangle marks
-    each cell measured, filled black where copies of its motion ended locked (a transient),
-    open where none did (:func:`_mark_lifetimes`)."""
+    each cell measured, filled black where copies of its motion were proven to end locked (a
+    transient), open where none was (:func:`_mark_lifetimes`)."""
     axes = list(grid["axes"])
     keys = table.apply(_label_key, axis=1)
     present = [k for k in LABEL_COLOURS if (keys == k).any()]
@@ -257,15 +257,15 @@ def _draw_limits(ax, table: pd.DataFrame, keys: pd.Series, xs: np.ndarray | None
 
 
 def _mark_lifetimes(ax, lifetimes: pd.DataFrame, xa: str, ya: str | None, handles: list) -> None:
-    """A triangle on each cell of the lifetime table (at the top of a 1-D diagram): filled black
-    where some copies ended locked (the motion is a transient there), open where none did; the
-    legend gives the counts and the measured mean lifetimes or their least lower bound."""
-    if lifetimes.empty:
-        return
-    done = lifetimes["n_escaped"] > 0
-    for sel, face, text in ((done, "black", "copies ended locked: a transient"),
-                            (~done, "none", "no copy ended locked")):
-        part = lifetimes[sel]
+    """A triangle on each cell of the lifetime table with a measured lifetime (at the top of a
+    1-D diagram): filled black where copies were proven to end locked (the motion is a transient
+    there), open where none was; the legend entries are those of
+    :func:`analysis.pipeline.chaos_lifetime.group_text` (counts, mean lifetimes, lower bound)."""
+    from analysis.pipeline.chaos_lifetime import group_text, lifetime_groups
+
+    groups = lifetime_groups(lifetimes)
+    text = group_text(groups)
+    for part, face, key in ((groups.escaped, "black", "escaped"), (groups.none, "none", "none")):
         if part.empty:
             continue
         if ya is None:
@@ -273,14 +273,8 @@ def _mark_lifetimes(ax, lifetimes: pd.DataFrame, xa: str, ya: str | None, handle
         else:
             y, kw = part[ya].to_numpy(), {}
         ax.plot(part[xa], y, "v", ms=5, mfc=face, mec="black", mew=0.6, ls="", **kw)
-        if face == "black":
-            from analysis.pipeline.chaos_lifetime import lifetime_range
-
-            life = f"mean lifetime {lifetime_range(part['lifetime'])} T"
-        else:
-            life = f"mean lifetime > {part['lifetime_lo'].min():.0f} T"
         handles.append(plt.Line2D([], [], marker="v", ms=5, mfc=face, mec="black", ls="",
-                                  label=f"{text} ({len(part)}; {life})"))
+                                  label=f"lifetime runs: {text[key]}"))
 
 
 def _hatch_multistable(ax, attractors: pd.DataFrame, xs: np.ndarray, ys: np.ndarray, xa: str, ya: str,

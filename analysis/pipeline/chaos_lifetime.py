@@ -37,7 +37,7 @@ from __future__ import annotations
 import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -48,7 +48,7 @@ from analysis.regimes import CHAOTIC, UNSETTLED
 from analysis.regimes import LABELS as REGIME_LABELS
 
 __all__ = ["LifetimeSettings", "chaos_lifetimes", "copy_starts", "copy_outcome", "lifetime_cells",
-           "lifetime_range", "summary_line", "write_lifetime_table"]
+           "lifetime_groups", "lifetime_range", "summary_line", "write_lifetime_table"]
 
 #: labels a setting may name (the classifier's, and a record still transient at the cap)
 LABELS = (*REGIME_LABELS, UNSETTLED)
@@ -137,14 +137,17 @@ def copy_starts(params: dict, final_state: Sequence[float], index: Sequence[int]
     return out
 
 
-def copy_outcome(result, params: dict) -> tuple[str, float]:
-    """One copy's run (a :class:`beamsim.results.SimResult` started at ``t = 0``): ``("escaped",
-    t)`` if it never slips after ``t`` periods and its end state is proven to stay stuck,
-    ``("unproven", t)`` if it never slips after ``t`` but the proof fails, ``("slipping", N)``
-    if it slips in its last period (``N`` its periods), ``("failed", nan)`` if it diverged or
-    met ``expo``'s Zeno guard."""
+def copy_outcome(result, pp) -> tuple[str, float]:
+    """One copy's run (a :class:`beamsim.results.SimResult` started at ``t = 0``; ``pp`` its
+    cell's :class:`beamsim.point.PreparedPoint`): ``("escaped", t)`` if it does no friction work
+    in any period after the first ``t`` (``t`` = 0: none at all) and its end state, every element
+    stuck, is proven to stay stuck (:func:`analysis.pipeline.stages.stuck_bound` below 1);
+    ``("unproven", t)`` if it does no friction work after ``t`` but the proof fails;
+    ``("slipping", N)`` if it does in its last period (``N`` its periods); ``("failed", nan)``
+    if it diverged or met ``expo``'s Zeno guard.  The friction work per period is the difference
+    of the run's cumulative friction dissipation, so a slip whose work is below that sum's
+    rounding is not seen; the end state's flags and its bound are what prove the lock."""
     from analysis.pipeline.stages import stuck_bound
-    from beamsim.simulate import prepare_point
 
     if result.diverged or result.n_zeno > 0 or not np.all(np.isfinite(result.energy[:, 1])):
         return "failed", np.nan
@@ -153,12 +156,13 @@ def copy_outcome(result, params: dict) -> tuple[str, float]:
     quiet = int(slipping[-1]) + 1 if slipping.size else 0
     if quiet >= diss.size:
         return "slipping", float(diss.size)
-    bound = stuck_bound(prepare_point(**params), result.final_state)
-    return ("escaped" if bound < 1.0 else "unproven"), float(quiet)
+    x = np.asarray(result.final_state, dtype=float)
+    stuck = not np.any(x[2 * pp.model.n + pp.model.n_quad:])  # every element's flag 0 (stuck)
+    return ("escaped" if stuck and stuck_bound(pp, x) < 1.0 else "unproven"), float(quiet)
 
 
 def _cell_row(row: pd.Series, outcomes: list[tuple[str, float]], axes: Sequence[str],
-              settings: LifetimeSettings) -> dict:
+              settings: LifetimeSettings, method: str) -> dict:
     kinds = [k for k, _ in outcomes]
     used = [(k, t) for k, t in outcomes if k != "failed"]
     est = exponential_lifetime([t for _, t in used], [k == "escaped" for k, _ in used])
@@ -167,7 +171,7 @@ def _cell_row(row: pd.Series, outcomes: list[tuple[str, float]], axes: Sequence[
             **{c: int(row[c]) for c in row.index if c.startswith("index_")},
             "label": row["label"], "lle_T": float(row["lle_mean"]) * T,
             "lock_ratio": float(row["lock_ratio"]), "shakedown_ratio": float(row["shakedown_ratio"]),
-            "copies": settings.copies, "periods": settings.periods,
+            "copies": settings.copies, "periods": settings.periods, "method": method,
             "n_escaped": kinds.count("escaped"), "n_unproven": kinds.count("unproven"),
             "n_failed": kinds.count("failed"), "exposure": est.exposure, "escape_rate": est.rate,
             "lifetime": est.lifetime, "lifetime_lo": est.lifetime_lo, "lifetime_hi": est.lifetime_hi,
@@ -184,9 +188,8 @@ def chaos_lifetimes(table: pd.DataFrame, simulated: pd.DataFrame, numerics: Nume
     in forcing periods; :func:`analysis.lifetimes.exponential_lifetime`).
 
     ``simulated``: the map's simulate records (``point_id``, ``final_state``)."""
-    from analysis.pipeline.stages import integrator
     from beamsim.pattern_store import PatternStore
-    from beamsim.simulate import simulate_batch
+    from beamsim.simulate import prepare_point, simulate_batch
 
     nm = as_numerics(numerics)
     cells = lifetime_cells(table, settings)
@@ -197,15 +200,25 @@ def chaos_lifetimes(table: pd.DataFrame, simulated: pd.DataFrame, numerics: Nume
         params = json.loads(row["params_json"])
         index = [row[c] for c in row.index if c.startswith("index_")]
         starts = copy_starts(params, finals.loc[row["point_id"]], index, settings)
-        batch = simulate_batch(starts, n_transient=0, n_record=settings.periods,
-                               method=integrator(nm.method, params), steps_per_period=nm.steps_per_period,
-                               step_factor=nm.step_factor, n_threads=threads, pattern_store=store)
-        outcomes = [copy_outcome(r, p) for r, p in zip(batch.results, starts)]
-        rows.append(_cell_row(row, outcomes, axes, settings))
-    columns = ["point_id", *axes, "label", "lle_T", "lock_ratio", "shakedown_ratio", "copies", "periods",
-               "n_escaped", "n_unproven", "n_failed", "exposure", "escape_rate", "lifetime", "lifetime_lo",
-               "lifetime_hi", "escape_periods", "censor_periods"]
-    return pd.DataFrame(rows) if rows else pd.DataFrame(columns=columns)
+        method = _map_integrator(row, nm, params)
+        batch = simulate_batch(starts, n_transient=0, n_record=settings.periods, method=method,
+                               steps_per_period=nm.steps_per_period, step_factor=nm.step_factor,
+                               n_threads=threads, pattern_store=store)
+        pp = prepare_point(**params)
+        rows.append(_cell_row(row, [copy_outcome(r, pp) for r in batch.results], axes, settings, method))
+    columns = ["point_id", *axes, *(c for c in table.columns if c.startswith("index_")), "label", "lle_T",
+               "lock_ratio", "shakedown_ratio", "copies", "periods", "method", "n_escaped", "n_unproven",
+               "n_failed", "exposure", "escape_rate", "lifetime", "lifetime_lo", "lifetime_hi",
+               "escape_periods", "censor_periods"]
+    return pd.DataFrame(rows, columns=columns)
+
+
+def _map_integrator(row: pd.Series, nm: Numerics, params: dict) -> str:
+    """The integrator the map's run of a cell used: RK4 where ``expo`` met its Zeno guard there
+    (the table's ``method`` says so), else the configured one."""
+    from analysis.pipeline.stages import integrator
+
+    return "rk4" if str(row.get("method", "")).startswith("rk4") else integrator(nm.method, params)
 
 
 def lifetime_range(lifetimes: pd.Series) -> str:
@@ -214,22 +227,50 @@ def lifetime_range(lifetimes: pd.Series) -> str:
     return lo if lo == hi else f"{lo}-{hi}"
 
 
+class LifetimeGroups(NamedTuple):
+    """The rows of a lifetime table by outcome (:func:`lifetime_groups`)."""
+
+    escaped: pd.DataFrame      #: some copy escaped to a proven locked orbit: a transient
+    none: pd.DataFrame         #: no copy proven to escape, some time observed: a lower bound
+    unmeasured: pd.DataFrame   #: no time observed (every copy failed, or all escaped at once)
+
+
+def lifetime_groups(lifetimes: pd.DataFrame) -> LifetimeGroups:
+    """Split a lifetime table (:func:`chaos_lifetimes`) by outcome; a cell without a finite
+    estimate (``exposure`` 0) is unmeasured whatever its copies did."""
+    measured = lifetimes["exposure"].astype(float) > 0
+    esc = lifetimes["n_escaped"] > 0
+    return LifetimeGroups(lifetimes[measured & esc], lifetimes[measured & ~esc], lifetimes[~measured])
+
+
+def group_text(groups: LifetimeGroups) -> dict[str, str]:
+    """Per non-empty group of :func:`lifetime_groups`, one clause with its count and lifetimes
+    (``escaped``: the range of the mean lifetimes; ``none``: the least lower bound, and how
+    many of those cells had copies stuck at the end but not proven to stay so)."""
+    out = {}
+    if len(groups.escaped):
+        out["escaped"] = (f"{len(groups.escaped)} with copies proven to end locked (a transient, "
+                          f"mean lifetimes {lifetime_range(groups.escaped['lifetime'])} periods)")
+    if len(groups.none):
+        unproven = int((groups.none["n_unproven"] > 0).sum())
+        stuck = f"; {unproven} with copies stuck at the end, not proven" if unproven else ""
+        out["none"] = (f"{len(groups.none)} without (mean lifetime > "
+                       f"{groups.none['lifetime_lo'].min():.0f} periods{stuck})")
+    if len(groups.unmeasured):
+        out["unmeasured"] = f"{len(groups.unmeasured)} not measured (no time observed)"
+    return out
+
+
 def summary_line(lifetimes: pd.DataFrame | None) -> str:
     """One clause for a map's legend or title: the cells run, those whose copies escaped to a
-    locked orbit (a transient), and the least lower bound on the others' mean lifetimes."""
+    proven locked orbit (a transient) with their mean lifetimes, the least lower bound on the
+    others' (:func:`group_text`)."""
     if lifetimes is None:
         return "lifetimes not measured"
     if lifetimes.empty:
         return "no cell run for its lifetime (none below the lock-up limit with the labels set)"
-    esc = lifetimes[lifetimes["n_escaped"] > 0]
-    out = f"lifetimes of {len(lifetimes)} cells below the lock-up limit: {len(esc)} ended locked (a transient"
-    if len(esc):
-        out += f", mean lifetimes {lifetime_range(esc['lifetime'])} periods"
-    out += ")"
-    rest = lifetimes[lifetimes["n_escaped"] == 0]
-    if len(rest):
-        out += f", {len(rest)} did not (mean lifetime > {rest['lifetime_lo'].min():.0f} periods)"
-    return out
+    parts = group_text(lifetime_groups(lifetimes))
+    return f"lifetimes of {len(lifetimes)} cells below the lock-up limit: " + ", ".join(parts.values())
 
 
 def write_lifetime_table(lifetimes: pd.DataFrame, path: str, *, grid_name: str, settings: dict,

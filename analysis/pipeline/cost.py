@@ -47,12 +47,16 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import yaml
 
 from analysis.pipeline.config import Numerics
 from analysis.pipeline.stages import free_copy_integrator, integrator
 from analysis.pipeline.store import PointStore
+
+if TYPE_CHECKING:
+    from analysis.pipeline.chaos_lifetime import LifetimeSettings
 
 __all__ = ["COST_MODEL_FILE", "Estimate", "LONG_RUN_SECONDS", "convergence_seconds", "estimate_run",
            "lifetime_seconds", "load_cost_model", "multistability_seconds"]
@@ -204,8 +208,8 @@ def multistability_seconds(points: Sequence, numerics: Numerics, n_cells: int, s
     return runs * (sim + NEW_ATTRACTOR_SHARE * lyap), runs
 
 
-def lifetime_seconds(points: Sequence, numerics: Numerics, settings, model: Mapping | None = None
-                     ) -> tuple[float, int]:
+def lifetime_seconds(points: Sequence, numerics: Numerics, settings: LifetimeSettings,
+                     model: Mapping | None = None) -> tuple[float, int]:
     """Estimated single-thread seconds and the number of copy runs of one grid's lifetime runs
     (``settings``: :class:`analysis.pipeline.chaos_lifetime.LifetimeSettings`): the expected
     cells (:data:`LIFETIME_CELL_SHARE` of ``points``, at most ``settings.max_cells``, at least
@@ -215,11 +219,15 @@ def lifetime_seconds(points: Sequence, numerics: Numerics, settings, model: Mapp
     if not settings.active or not points:
         return 0.0, 0
     cells = min(settings.max_cells, max(1, round(LIFETIME_CELL_SHARE * len(points))))
-    per_period = sum(_coefficient(model["simulate"][integrator(numerics.method, p.params)],
-                                  int(p.params.get("n_modes", 1))) / float(p.params.get("Omega", 1.0))
-                     for p in points) / len(points)
+    def per_period(params: Mapping) -> float:  # point_seconds' simulate cost of one period
+        method = integrator(numerics.method, params)
+        scale = 1.0 / numerics.step_factor if method == "rk4" else 1.0
+        c = _coefficient(model["simulate"][method], int(params.get("n_modes", 1)))
+        return c * scale / float(params.get("Omega", 1.0))
+
+    mean = sum(per_period(p.params) for p in points) / len(points)
     runs = cells * settings.copies
-    return runs * settings.periods * per_period, runs
+    return runs * settings.periods * mean, runs
 
 
 def estimate_run(points: Iterable, numerics: Numerics, store_root: str | Path,
@@ -227,7 +235,7 @@ def estimate_run(points: Iterable, numerics: Numerics, store_root: str | Path,
                  convergence: Iterable[tuple[Sequence, Iterable[str], int]] = (),
                  lines: Iterable[Sequence] = (),
                  multistability: Iterable[tuple[Sequence, int, int]] = (),
-                 lifetimes: Iterable[tuple[Sequence, object]] = ()) -> Estimate:
+                 lifetimes: Iterable[tuple[Sequence, LifetimeSettings]] = ()) -> Estimate:
     """Estimate of the work for ``points`` (objects with ``point_id`` and ``params``; the same
     point in two grids counts once) given what ``store_root`` already holds, plus the
     convergence runs still to do: ``(grid's points, pending refinements, sample)`` per grid

@@ -13,6 +13,7 @@ from analysis.lifetimes import exponential_lifetime
 from analysis.pipeline.chaos_lifetime import (
     LifetimeSettings,
     chaos_lifetimes,
+    copy_outcome,
     copy_starts,
     lifetime_cells,
     summary_line,
@@ -54,7 +55,8 @@ def test_below_the_shakedown_limit_every_copy_locks_and_is_proven_to_stay():
     assert all(20 < t < 300 for t in r["escape_periods"])
     est = exponential_lifetime(r["escape_periods"], [True] * 3)
     assert r["lifetime"] == pytest.approx(est.lifetime) and r["exposure"] == sum(r["escape_periods"])
-    assert f"1 ended locked (a transient, mean lifetimes {r['lifetime']:.0f} periods)" in summary_line(out)
+    assert (f"1 with copies proven to end locked (a transient, mean lifetimes {r['lifetime']:.0f} periods)"
+            in summary_line(out))
 
 
 def test_a_stuck_end_the_bound_does_not_prove_is_censored_where_the_stuck_stretch_starts():
@@ -88,7 +90,7 @@ def test_a_copy_that_still_slips_is_censored_at_the_horizon():
     r = chaos_lifetimes(pd.DataFrame([row]), sim, NUMERICS, st, ["Omega", "f0_rel"]).iloc[0]
     assert r["n_escaped"] == 0 and list(r["censor_periods"]) == [10, 10]
     assert r["lifetime"] == np.inf and r["lifetime_lo"] == pytest.approx(20 / 3.6889, rel=1e-4)
-    assert "did not (mean lifetime > 5 periods)" in summary_line(pd.DataFrame([r]))
+    assert summary_line(pd.DataFrame([r])).endswith(": 1 without (mean lifetime > 5 periods)")
 
 
 def test_cells_are_those_below_the_lock_up_limit_that_slip_with_the_labels_set():
@@ -132,3 +134,55 @@ def test_settings_refuse_bad_values_naming_the_key(bad, match):
         LifetimeSettings.from_dict(bad)
     assert LifetimeSettings.from_dict({"copies": 0}).active is False
     assert LifetimeSettings.from_dict(LifetimeSettings().as_dict()) == LifetimeSettings()
+
+
+def _fake_run(diss, flags=0.0, diverged=False, n_zeno=0):
+    """A stand-in for a copy's :class:`beamsim.results.SimResult`: friction work per period
+    ``diss``, end state of the one-mode model with every element's flag ``flags``."""
+    from types import SimpleNamespace
+
+    pp = prepare_point(**POINT, f0_rel=0.8)
+    n, nq = pp.model.n, pp.model.n_quad
+    final = np.concatenate([np.zeros(2 * n + nq), np.full(nq, flags)])
+    energy = np.zeros((len(diss) + 1, 5))
+    energy[1:, 1] = np.cumsum(diss)
+    return pp, SimpleNamespace(diverged=diverged, n_zeno=n_zeno, energy=energy,
+                               diss_per_cycle=np.diff(energy[:, 1]), final_state=final)
+
+
+def test_a_copys_escape_time_is_the_count_of_periods_up_to_its_last_slip(monkeypatch):
+    """The escape time is the number of periods up to and including the last one with friction
+    work (0 when there is none); the end must be stuck at every element and proven to stay so,
+    else the copy is censored at that time; a run that slips in its last period is censored at
+    its length; a diverged run or one that met the Zeno guard is left out."""
+    import analysis.pipeline.stages as stages
+
+    bound = {"value": 0.5}
+    monkeypatch.setattr(stages, "stuck_bound", lambda pp, x: bound["value"])
+    pp, run = _fake_run([1.0, 2.0, 0.5, 0.0, 0.0, 0.0])
+    assert copy_outcome(run, pp) == ("escaped", 3.0)
+    pp, run = _fake_run([0.0] * 4)
+    assert copy_outcome(run, pp) == ("escaped", 0.0)
+    pp, run = _fake_run([1.0, 0.0, 0.0, 0.5])
+    assert copy_outcome(run, pp) == ("slipping", 4.0)
+    pp, run = _fake_run([1.0, 0.0, 0.0], flags=1.0)  # an element still flagged slipping at the end
+    assert copy_outcome(run, pp) == ("unproven", 1.0)
+    bound["value"] = 1.2
+    pp, run = _fake_run([1.0, 0.0, 0.0])
+    assert copy_outcome(run, pp) == ("unproven", 1.0)
+    for kw in ({"diverged": True}, {"n_zeno": 3}):
+        pp, run = _fake_run([1.0, 0.0], **kw)
+        kind, t = copy_outcome(run, pp)
+        assert kind == "failed" and np.isnan(t)
+    pp, run = _fake_run([1.0, np.nan])
+    assert copy_outcome(run, pp)[0] == "failed"
+
+
+def test_a_cell_with_no_time_observed_is_unmeasured_not_a_bound():
+    rows = pd.DataFrame({"n_escaped": [2, 0, 0], "n_unproven": [0, 1, 0],
+                         "exposure": [900.0, 15000.0, 0.0], "lifetime": [450.0, np.inf, np.nan],
+                         "lifetime_lo": [200.0, 4066.0, np.nan]})
+    assert summary_line(rows) == (
+        "lifetimes of 3 cells below the lock-up limit: 1 with copies proven to end locked (a transient, "
+        "mean lifetimes 450 periods), 1 without (mean lifetime > 4066 periods; 1 with copies stuck at "
+        "the end, not proven), 1 not measured (no time observed)")

@@ -157,15 +157,19 @@ def test_the_limits_are_drawn_where_their_ratios_cross_one_and_count_the_other_l
                                   {"f0_rel": [1.0, 1.5, 2.0, 3.0, 4.0]}])
 def test_lifetime_cells_are_marked_with_their_counts_and_lifetimes(tmp_path, axes) -> None:
     """With a lifetime table the map marks the cells measured: the legend counts those whose
-    copies ended locked with the range of their mean lifetimes, and the others with the least
-    lower bound; an empty table adds nothing."""
+    copies were proven to end locked with the range of their mean lifetimes, and the others
+    with the least lower bound; a cell without observed time is not marked; an empty table adds
+    nothing."""
     table = _table(axes)
-    cells = table.iloc[[1, 2, 4]][list(axes)].assign(n_escaped=[2, 0, 1], lifetime=[812.4, np.inf, 3100.0],
-                                                     lifetime_lo=[300.0, 4337.4, 900.0])
+    cells = table.iloc[[1, 2, 4, 0]][list(axes)].assign(
+        n_escaped=[2, 0, 1, 0], n_unproven=[0, 0, 0, 0], exposure=[1600.0, 16000.0, 3100.0, 0.0],
+        lifetime=[812.4, np.inf, 3100.0, np.nan], lifetime_lo=[300.0, 4337.4, 900.0, np.nan])
     legend = _legend_of(plot_regimes, table, "g", {"axes": axes}, str(tmp_path / "a.png"), dpi=40,
                         lifetimes=cells)
-    assert "copies ended locked: a transient (2; mean lifetime 812-3100 T)" in legend
-    assert "no copy ended locked (1; mean lifetime > 4337 T)" in legend
+    assert ("lifetime runs: 2 with copies proven to end locked (a transient, mean lifetimes 812-3100 "
+            "periods)") in legend
+    assert "lifetime runs: 1 without (mean lifetime > 4337 periods)" in legend
+    assert not [t for t in legend if "not measured" in t]
     legend = _legend_of(plot_regimes, table, "g", {"axes": axes}, str(tmp_path / "b.png"), dpi=40,
                         lifetimes=cells.iloc[:0])
     assert not [t for t in legend if "locked" in t]

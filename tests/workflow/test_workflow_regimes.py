@@ -162,7 +162,7 @@ def test_multistability_step_ships_with_the_map(first_run):
 def test_lifetime_step_ships_with_the_map(first_run):
     """The lifetime table holds exactly the map's cells with a label of the settings, below
     the lock-up limit, whose runs slip (none on the tiny grid: its slipping point lies above
-    the limit), with the config hash of the map; the map figure was drawn with it."""
+    the limit), with the config hash of the map."""
     out = first_run / "results" / "regimes"
     life = pd.read_parquet(out / "tiny" / "lifetimes.parquet")
     table = pd.read_parquet(out / "tiny.parquet")

@@ -168,8 +168,8 @@ rule chaos_lifetime:
         axes=lambda wc: list(GRIDS["grids"][wc.grid]["axes"]),
         config_hash=CONFIG_HASH,
     threads: 1
-    # as long as the multistability job: started beside it after the map, so that the short
-    # convergence runs fill the cores around both (last, it held one core alone for 50 s)
+    # about as long as the multistability job: started beside it after the map, so that the
+    # short convergence runs fill the cores around both (docs/performance.md, "The lifetime runs")
     priority: 1
     log:
         "logs/regimes/{grid}/chaos_lifetime.log",
