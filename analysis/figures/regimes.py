@@ -261,6 +261,8 @@ def _mark_lifetimes(ax, lifetimes: pd.DataFrame, xa: str, ya: str | None, handle
     1-D diagram): filled black where copies were proven to end locked (the motion is a transient
     there), open where none was; the legend entries are those of
     :func:`analysis.pipeline.chaos_lifetime.group_text` (counts, mean lifetimes, lower bound)."""
+    import textwrap
+
     from analysis.pipeline.chaos_lifetime import group_text, lifetime_groups
 
     groups = lifetime_groups(lifetimes)
@@ -274,7 +276,7 @@ def _mark_lifetimes(ax, lifetimes: pd.DataFrame, xa: str, ya: str | None, handle
             y, kw = part[ya].to_numpy(), {}
         ax.plot(part[xa], y, "v", ms=5, mfc=face, mec="black", mew=0.6, ls="", **kw)
         handles.append(plt.Line2D([], [], marker="v", ms=5, mfc=face, mec="black", ls="",
-                                  label=f"lifetime runs: {text[key]}"))
+                                  label=textwrap.fill(f"lifetime runs: {text[key]}", width=62)))
 
 
 def _hatch_multistable(ax, attractors: pd.DataFrame, xs: np.ndarray, ys: np.ndarray, xa: str, ya: str,

@@ -166,6 +166,7 @@ def test_lifetime_cells_are_marked_with_their_counts_and_lifetimes(tmp_path, axe
         lifetime=[812.4, np.inf, 3100.0, np.nan], lifetime_lo=[300.0, 4337.4, 900.0, np.nan])
     legend = _legend_of(plot_regimes, table, "g", {"axes": axes}, str(tmp_path / "a.png"), dpi=40,
                         lifetimes=cells)
+    legend = [" ".join(t.split()) for t in legend]  # entries are wrapped
     assert ("lifetime runs: 2 with copies proven to end locked (a transient, mean lifetimes 812-3100 "
             "periods)") in legend
     assert "lifetime runs: 1 without (mean lifetime > 4337 periods)" in legend
