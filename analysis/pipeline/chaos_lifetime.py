@@ -47,8 +47,9 @@ from analysis.pipeline.config import Numerics, as_numerics
 from analysis.regimes import CHAOTIC, UNSETTLED
 from analysis.regimes import LABELS as REGIME_LABELS
 
-__all__ = ["LifetimeSettings", "chaos_lifetimes", "copy_starts", "copy_outcome", "lifetime_cells",
-           "lifetime_groups", "lifetime_range", "summary_line", "write_lifetime_table"]
+__all__ = ["LifetimeGroups", "LifetimeSettings", "chaos_lifetimes", "copy_starts", "copy_outcome",
+           "group_text", "lifetime_cells", "lifetime_groups", "lifetime_range", "summary_line",
+           "write_lifetime_table"]
 
 #: labels a setting may name (the classifier's, and a record still transient at the cap)
 LABELS = (*REGIME_LABELS, UNSETTLED)

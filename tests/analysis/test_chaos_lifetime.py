@@ -186,3 +186,17 @@ def test_a_cell_with_no_time_observed_is_unmeasured_not_a_bound():
         "lifetimes of 3 cells below the lock-up limit: 1 with copies proven to end locked (a transient, "
         "mean lifetimes 450 periods), 1 without (mean lifetime > 4066 periods; 1 with copies stuck at "
         "the end, not proven), 1 not measured (no time observed)")
+
+
+def test_copies_run_on_the_integrator_of_the_maps_run():
+    """A cell whose map run fell back to RK4 (``expo`` met its Zeno guard) gets RK4 copies; the
+    others the configured integrator."""
+    from analysis.pipeline.chaos_lifetime import _map_integrator
+    from analysis.pipeline.config import as_numerics
+    from beamsim.results import ZENO_FALLBACK
+
+    row, _ = _row(0.9, 0)
+    params = json.loads(row["params_json"])
+    nm = as_numerics(NUMERICS)
+    assert _map_integrator(pd.Series(row | {"method": ZENO_FALLBACK}), nm, params) == "rk4"
+    assert _map_integrator(pd.Series(row | {"method": "expo"}), nm, params) == "expo"
