@@ -36,13 +36,13 @@ orbits with different slip locked into stuck elements).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any, NamedTuple
 
 import numpy as np
 import pandas as pd
 
-from analysis.pipeline.config import Numerics, as_numerics
+from analysis.pipeline.config import Numerics, as_numerics, check_keys
 from analysis.regimes import CHAOTIC, PERIODIC, QUASI_PERIODIC
 
 __all__ = ["MultistabilitySettings", "cell_attractors", "cell_starts", "cell_summary", "locked_start",
@@ -84,10 +84,7 @@ class MultistabilitySettings:
     @classmethod
     def from_dict(cls, d: Mapping[str, Any] | None) -> MultistabilitySettings:
         d = dict(d or {})
-        allowed = ["amplitude", "locked", "neighbours", "perturbations", "sample", "seed"]
-        unknown = set(d) - set(allowed)
-        if unknown:
-            raise ValueError(f"multistability: unknown key(s) {sorted(unknown)}; allowed: {allowed}")
+        check_keys("multistability", d, [f.name for f in fields(cls)])
         out = cls(**d)
         if not (out.sample == "all" or (isinstance(out.sample, int) and not isinstance(out.sample, bool)
                                         and out.sample >= 0)):

@@ -36,14 +36,14 @@ from __future__ import annotations
 
 import json
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any, NamedTuple
 
 import numpy as np
 import pandas as pd
 
 from analysis.lifetimes import exponential_lifetime
-from analysis.pipeline.config import Numerics, as_numerics
+from analysis.pipeline.config import Numerics, as_numerics, check_keys
 from analysis.regimes import CHAOTIC, UNSETTLED
 from analysis.regimes import LABELS as REGIME_LABELS
 
@@ -78,10 +78,7 @@ class LifetimeSettings:
     @classmethod
     def from_dict(cls, d: Mapping[str, Any] | None) -> LifetimeSettings:
         d = dict(d or {})
-        allowed = ["copies", "labels", "max_cells", "periods", "perturbation", "seed"]
-        unknown = set(d) - set(allowed)
-        if unknown:
-            raise ValueError(f"lifetimes: unknown key(s) {sorted(unknown)}; allowed: {allowed}")
+        check_keys("lifetimes", d, [f.name for f in fields(cls)])
         labels = d.pop("labels", [CHAOTIC])
         if (not isinstance(labels, (list, tuple)) or not labels
                 or any(lab not in LABELS for lab in labels)):

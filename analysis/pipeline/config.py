@@ -16,7 +16,7 @@ from typing import Any, Mapping
 from analysis.lyapunov.block_statistics import BOUNDARIES, BlockPlan
 from beamsim.results import INTEGRATORS
 
-__all__ = ["CONFIRM_METHODS", "LYAPUNOV_METHODS", "LyapunovNumerics", "Numerics", "as_numerics"]
+__all__ = ["CONFIRM_METHODS", "LYAPUNOV_METHODS", "LyapunovNumerics", "Numerics", "as_numerics", "check_keys"]
 
 #: reference-run integrators the pipeline accepts: the simulator's, and ``auto``
 #: (:func:`analysis.pipeline.stages.integrator`)
@@ -26,6 +26,16 @@ METHODS = ("auto", *INTEGRATORS)
 LYAPUNOV_METHODS = ("auto", "rk4", "expo")
 #: second opinions on an ``expo`` pair's long record (:attr:`LyapunovNumerics.confirm`)
 CONFIRM_METHODS = ("contradicted", "all", "none")
+
+
+def check_keys(section: str, given: Mapping[str, Any], allowed) -> None:
+    """Refuse the keys of the config section ``section`` that are not in ``allowed``: one line
+    naming them and the allowed ones (sorted), e.g. ``lifetimes: unknown key(s) ['sample'];
+    allowed: ['copies', ...]``."""
+    allowed = sorted(allowed)
+    unknown = set(given) - set(allowed)
+    if unknown:
+        raise ValueError(f"{section}: unknown key(s) {sorted(unknown)}; allowed: {allowed}")
 
 
 @dataclass(frozen=True)
@@ -148,16 +158,10 @@ class Numerics:
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> Numerics:
         """From the config's ``numerics`` section (missing keys take the defaults)."""
-        known = {f.name for f in fields(cls)}
-        unknown = set(d) - known
-        if unknown:
-            raise ValueError(f"numerics: unknown key(s) {sorted(unknown)}; allowed: {sorted(known)}")
+        check_keys("numerics", d, [f.name for f in fields(cls)])
         kw = dict(d)
         lyap = dict(kw.pop("lyapunov", None) or {})
-        known_l = {f.name for f in fields(LyapunovNumerics)}
-        if set(lyap) - known_l:
-            raise ValueError(f"numerics.lyapunov: unknown key(s) {sorted(set(lyap) - known_l)}; "
-                             f"allowed: {sorted(known_l)}")
+        check_keys("numerics.lyapunov", lyap, [f.name for f in fields(LyapunovNumerics)])
         if kw.get("method", cls.method) not in METHODS:
             raise ValueError(f"numerics.method = {kw['method']!r}; allowed: {', '.join(METHODS)}")
         if lyap.get("method", LyapunovNumerics.method) not in LYAPUNOV_METHODS:

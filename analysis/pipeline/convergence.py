@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from analysis.pipeline.config import Numerics, as_numerics
+from analysis.pipeline.config import Numerics, as_numerics, check_keys
 from analysis.pipeline.grid import canonical_json, point_id
 
 __all__ = ["CONTROLS", "ConvergenceSettings", "LOAD_SHIFT", "REFINEMENTS", "convergence_runs",
@@ -99,10 +99,7 @@ class ConvergenceSettings:
     @classmethod
     def from_dict(cls, d: Mapping[str, Any] | None) -> ConvergenceSettings:
         d = dict(d or {})
-        unknown = set(d) - {"sample", "seed", "refinements"}
-        if unknown:
-            raise ValueError(f"convergence: unknown key(s) {sorted(unknown)}; "
-                             "allowed: ['refinements', 'sample', 'seed']")
+        check_keys("convergence", d, ["refinements", "sample", "seed"])
         refs = tuple(d.pop("refinements", cls.refinements))
         bad = [r for r in refs if r not in REFINEMENTS]
         if bad:
