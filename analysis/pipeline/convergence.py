@@ -14,7 +14,10 @@ run share everything else) and sends the refined points through the pipeline's o
 * ``windows``: transient (and its cap), record, Stefanski window, Lyapunov burn-in and blocks
   all twice as long (the same number of blocks, each twice as long);
 * ``k_t``: the Jenkins (stick) stiffness of the interface three times larger (law
-  ``stick-slip`` only: the rigid stick has none);
+  ``stick-slip`` only: the rigid stick has none, and the regularised laws have no stick);
+* ``band``: the velocity band ``eps_v`` of the regularised laws (``full-slip``, ``stribeck``:
+  :data:`REGULARISED_LAWS`) halved (``eps_v`` where a point gives it, else ``eps_rel``), their
+  interface's regularisation as ``k_t`` is the stick-slip law's;
 * ``modes``: one more arch mode in the Galerkin basis.
 
 Two **controls** change the physics instead (:data:`CONTROLS`): ``load_up`` and ``load_down``
@@ -49,10 +52,10 @@ import pandas as pd
 from analysis.pipeline.config import Numerics, as_numerics, check_keys
 from analysis.pipeline.grid import canonical_json, point_id
 
-__all__ = ["CONTROLS", "ConvergenceSettings", "LOAD_SHIFT", "REFINEMENTS", "convergence_runs",
-           "convergence_summary", "flagged", "held_interval", "label_text", "onto_locked", "refine",
-           "run_metadata",
-           "same_label", "sample_points", "summary_line", "write_convergence_table"]
+__all__ = ["CONTROLS", "ConvergenceSettings", "LOAD_SHIFT", "REFINEMENTS", "REGULARISED_LAWS",
+           "applies", "convergence_runs", "convergence_summary", "flagged", "grid_refinements",
+           "held_interval", "label_text", "onto_locked", "refine", "run_metadata", "same_label",
+           "sample_points", "summary_line", "write_convergence_table"]
 
 #: the relative change of the load amplitude of the controls ``load_up`` / ``load_down``
 #: (the size of the change of ``f_cr``, and so of the load at a given ``f0_rel``, that one more
@@ -64,10 +67,16 @@ REFINEMENTS = {
     "step": "step / 2",
     "windows": "windows x 2",
     "k_t": "k_t x 3",
+    "band": "eps_v / 2",
     "modes": "modes + 1",
     "load_up": f"load x {1 + LOAD_SHIFT:g}",
     "load_down": f"load / {1 + LOAD_SHIFT:g}",
 }
+
+#: the friction laws with a velocity band (``tau ~ tanh(v / eps_v)``, docs/model.md section 6): their
+#: interface knob is the band (refinement ``band``), not ``k_t``, which there only sets the
+#: penalty-bonded beam that ``Omega`` and ``f0_rel`` are relative to
+REGULARISED_LAWS = ("full-slip", "stribeck")
 
 #: the entries of :data:`REFINEMENTS` that change the physics (the load), not the numerics
 CONTROLS = ("load_up", "load_down")
@@ -89,7 +98,8 @@ class ConvergenceSettings:
     sample : points of each grid re-run per refinement (0: no convergence runs; the map then
         says that its labels were not checked).
     seed : seed of the sample's draw.
-    refinements : names from :data:`REFINEMENTS`, in the order of the table and figure.
+    refinements : names from :data:`REFINEMENTS`, in the order of the table and figure; each
+        grid runs those that are knobs of its law (:func:`grid_refinements`).
     """
 
     sample: int = 20
@@ -118,10 +128,46 @@ class ConvergenceSettings:
 
 
 # ----------------------------------------------------------------------------- refinements
+def applies(refinement: str, params: Mapping) -> bool:
+    """Whether ``refinement`` is a knob of the point ``params``: ``k_t`` of the stick-slip law
+    (the rigid stick and the regularised laws have no stick stiffness), ``band`` of the
+    regularised laws (:data:`REGULARISED_LAWS`), every other refinement of every law.
+    :func:`refine` refuses a point it does not apply to."""
+    from beamsim.friction import Friction
+
+    law = params.get("law", Friction.law)
+    if refinement == "k_t":
+        return law == "stick-slip"
+    if refinement == "band":
+        return law in REGULARISED_LAWS
+    return True
+
+
+def grid_refinements(refinements: Sequence[str], points: Sequence[Mapping], grid: str) -> tuple[str, ...]:
+    """The refinements of ``refinements`` that run on one grid (``points``: its points'
+    parameters): those that apply to its points' law (:func:`applies`), so that one
+    ``convergence.refinements`` serves grids of different laws (the shipped list has ``k_t``
+    and ``band``; a stick-slip grid runs the first, a Stribeck grid the second).  A refinement
+    that applies to some of the grid's points and not to others (a grid whose axis is the law)
+    is an error: its row would mix knobs."""
+    keep = []
+    for ref in refinements:
+        ok = [applies(ref, p) for p in points]
+        if all(ok):
+            keep.append(ref)
+        elif any(ok):
+            laws = sorted({str(p.get("law")) for p, a in zip(points, ok) if not a})
+            raise ValueError(f"convergence.refinements: {ref!r} is a knob of some points of grid "
+                             f"{grid} but not of those of law {', '.join(laws)}: give the laws "
+                             f"grids of their own")
+    return tuple(keep)
+
+
 def refine(refinement: str, params: dict, numerics: Numerics | dict) -> tuple[dict, Numerics]:
     """The parameters and numerics of ``refinement`` (a key of :data:`REFINEMENTS`, a control
     among them) applied to one point; everything else unchanged."""
     from analysis.pipeline.stages import integrator
+    from beamsim.friction import Friction
     from beamsim.point import DEFAULT_F0_REL, DEFAULT_STEPS_PER_PERIOD
     from beamsim.two_layer import Geometry
 
@@ -143,12 +189,18 @@ def refine(refinement: str, params: dict, numerics: Numerics | dict) -> tuple[di
                      n_record=2 * nm.n_record,
                      lyapunov=replace(ly, n_periods=2 * ly.n_periods, burn_in=2 * ly.burn_in,
                                       block_periods=2 * ly.block_periods))
-    elif refinement == "k_t":
-        if p.get("law") == "rigid-stick":
-            raise ValueError("convergence.refinements: 'k_t' stiffens the elastic stick of law "
-                             "stick-slip; a point has law rigid-stick, which has no stick "
-                             "stiffness: drop 'k_t' from convergence.refinements")
-        p["k_t"] = 3.0 * float(p.get("k_t", Geometry.k_t))
+    elif refinement in ("k_t", "band"):
+        if not applies(refinement, p):
+            knob = ("the stick stiffness of law stick-slip" if refinement == "k_t" else
+                    f"the velocity band of the regularised laws ({', '.join(REGULARISED_LAWS)})")
+            raise ValueError(f"refinement {refinement!r} refines {knob}; the point has law "
+                             f"{p.get('law', Friction.law)}")
+        if refinement == "k_t":
+            p["k_t"] = 3.0 * float(p.get("k_t", Geometry.k_t))
+        elif p.get("eps_v") is not None:
+            p["eps_v"] = 0.5 * float(p["eps_v"])
+        else:
+            p["eps_rel"] = 0.5 * float(p.get("eps_rel", Friction.eps_rel))
     elif refinement == "modes":
         n = int(p.get("n_modes", Geometry.n_modes))
         if n + 1 > MAX_MODES:

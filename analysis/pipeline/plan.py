@@ -20,7 +20,7 @@ from snakemake.exceptions import WorkflowError
 from analysis.pipeline.cell_attractors import MultistabilitySettings
 from analysis.pipeline.chaos_lifetime import LifetimeSettings
 from analysis.pipeline.config import Numerics
-from analysis.pipeline.convergence import ConvergenceSettings, refine
+from analysis.pipeline.convergence import ConvergenceSettings, grid_refinements, refine
 from analysis.pipeline.grid import GridPoint, canonical_json, chunk_points, expand_grid
 from analysis.pipeline.stages import free_copy_integrator, integrator
 from analysis.pipeline.validation import (
@@ -54,6 +54,9 @@ class Plan:
     rigid_stick : whether a grid or a line has rigid-stick points (whose kernels are their own,
     so compile_kernels builds them too).
     convergence : the convergence runs' settings (sample size, seed, refinements).
+    grid_refinements : grid name -> the refinements its convergence runs make: those of
+        ``convergence`` (none when its sample is 0) that are knobs of the grid's law
+        (``k_t`` of stick-slip, ``band`` of full-slip and stribeck).
     multistability : the settings of the runs of a map's cells from other starts.
     lifetimes : the settings of the lifetime runs of a map's chaos below the lock-up limit.
     lines : grid name -> line name -> the line's points in axis order (continuation sweeps).
@@ -70,6 +73,7 @@ class Plan:
     lyapunov_methods: list[str]
     rigid_stick: bool
     convergence: ConvergenceSettings
+    grid_refinements: dict[str, tuple[str, ...]]
     multistability: MultistabilitySettings
     lifetimes: LifetimeSettings
     lines: dict[str, dict[str, list[GridPoint]]]
@@ -123,14 +127,17 @@ def build_plan(config: dict, schemas: Path) -> Plan:
         convergence = ConvergenceSettings.from_dict(config.get("convergence"))
         multistability = MultistabilitySettings.from_dict(config.get("multistability"))
         lifetimes = LifetimeSettings.from_dict(config.get("lifetimes"))
-        for pts in points.values():  # every refinement applies to every point (modes + 1 <= max)
-            for ref in convergence.active:
+        refinements = {}  # per grid, the refinements that are knobs of its law
+        for name, pts in points.items():
+            refinements[name] = grid_refinements(convergence.active, [p.params for p in pts], name)
+            for ref in refinements[name]:  # each applies to every point (modes + 1 <= max)
                 for p in pts:
                     refine(ref, p.params, numerics)
     except ValueError as exc:
         raise WorkflowError(f"invalid config: {exc}") from None
     return Plan(grids, numerics, result_numerics, table_config, config_hash, points, chunks,
-                methods, free_methods, rigid, convergence, multistability, lifetimes, lines)
+                methods, free_methods, rigid, convergence, refinements, multistability, lifetimes,
+                lines)
 
 
 def _expand_lines(grids: dict, model: dict, result_numerics: dict, model_schema: dict,

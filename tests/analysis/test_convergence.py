@@ -16,9 +16,11 @@ from analysis.pipeline.config import Numerics
 from analysis.pipeline.convergence import (
     MAX_MODES,
     REFINEMENTS,
+    REGULARISED_LAWS,
     ConvergenceSettings,
     convergence_runs,
     convergence_summary,
+    grid_refinements,
     held_interval,
     refine,
     same_label,
@@ -28,6 +30,7 @@ from analysis.pipeline.convergence import (
 from analysis.pipeline.grid import canonical_json, point_id
 from analysis.pipeline.stages import expo_copy_steps
 from beamsim.coupled_copies import EXPO_COPY_STEPS_PER_PERIOD
+from beamsim.friction import Friction
 from beamsim.point import DEFAULT_STEPS_PER_PERIOD
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -60,6 +63,20 @@ def test_each_refinement_changes_its_knob_only():
     assert p == POINT | {"k_t": 30.0} and r == nm
     p, r = refine("modes", POINT, nm)
     assert p == POINT | {"n_modes": 3} and r == nm
+    stribeck = POINT | {"law": "stribeck"}  # the regularised laws' band: eps_rel, or eps_v if given
+    p, r = refine("band", stribeck, nm)
+    assert p == stribeck | {"eps_rel": Friction.eps_rel / 2} and r == nm
+    p, r = refine("band", stribeck | {"eps_rel": 0.02}, nm)
+    assert p == stribeck | {"eps_rel": 0.01}
+    absolute = POINT | {"law": "full-slip", "eps_v": 3e-5}
+    assert refine("band", absolute, nm)[0] == absolute | {"eps_v": 1.5e-5}
+    with pytest.raises(ValueError, match="'band'.*law stick-slip"):
+        refine("band", POINT, nm)
+    with pytest.raises(ValueError, match="'band'.*law rigid-stick"):
+        refine("band", POINT | {"law": "rigid-stick"}, nm)
+    for law in (*REGULARISED_LAWS, "rigid-stick"):  # k_t is no knob of theirs
+        with pytest.raises(ValueError, match=f"'k_t'.*law {law}"):
+            refine("k_t", POINT | {"law": law}, nm)
     p, r = refine("load_up", POINT, nm)  # the controls: the load, not the numerics
     assert p == POINT | {"f0_rel": pytest.approx(0.3 * 1.02)} and r == nm
     p, r = refine("load_down", POINT, nm)
@@ -77,10 +94,45 @@ def test_each_refinement_changes_its_knob_only():
 
 def test_refined_points_have_their_own_ids():
     """The per-point store is keyed by id: a refined run must never be mistaken for the map's."""
-    ids = {point_id(POINT, Numerics())}
-    for ref in REFINEMENTS:
-        ids.add(point_id(*refine(ref, POINT, Numerics())))
-    assert len(ids) == 1 + len(REFINEMENTS)
+    for point, knob in ((POINT, "k_t"), (POINT | {"law": "stribeck"}, "band")):
+        refs = [r for r in REFINEMENTS if r not in ("k_t", "band")] + [knob]
+        ids = {point_id(point, Numerics())}
+        for ref in refs:
+            ids.add(point_id(*refine(ref, point, Numerics())))
+        assert len(ids) == 1 + len(refs)
+
+
+def test_each_grid_runs_the_knobs_of_its_law():
+    """One ``convergence.refinements`` serves grids of different laws: each runs the
+    refinements that are knobs of its law; a grid that mixes laws with different knobs is an
+    error naming the refinement and the law."""
+    refs = ("step", "k_t", "band", "modes")
+    assert grid_refinements(refs, [POINT, POINT], "g") == ("step", "k_t", "modes")
+    assert grid_refinements(refs, [POINT | {"law": "stribeck"}], "g") == ("step", "band", "modes")
+    assert grid_refinements(refs, [POINT | {"law": "full-slip"}], "g") == ("step", "band", "modes")
+    assert grid_refinements(refs, [POINT | {"law": "rigid-stick"}], "g") == ("step", "modes")
+    assert grid_refinements(("k_t",), [POINT | {"law": "stribeck"}], "g") == ()
+    with pytest.raises(ValueError, match="'k_t'.*grid g.*law stribeck"):
+        grid_refinements(refs, [POINT, POINT | {"law": "stribeck"}], "g")
+    # step, windows, modes and the controls are knobs of every law
+    mixed = [POINT, POINT | {"law": "stribeck"}]
+    assert grid_refinements(refs[:1] + refs[3:], mixed, "g") == ("step", "modes")
+
+
+@pytest.mark.parametrize("band", [{}, {"eps_rel": 0.02}, {"eps_v": 3e-5}])
+def test_the_band_refinement_halves_the_kernels_band(band):
+    """What the kernels integrate: the prepared point's velocity band is half the map's, and
+    nothing else of the point moves (load, frequency, slip-onset load, pressure)."""
+    from beamsim.point import prepare_point
+
+    point = {"n_modes": 1, "law": "stribeck", "mu_s": 0.45, "mu_k": 0.3, "v_s": 4e-4,
+             "Omega": 1.5, "f0_rel": 2.0} | band
+    a = prepare_point(**point)
+    b = prepare_point(**refine("band", point, Numerics())[0])
+    assert b.eps_v == pytest.approx(a.eps_v / 2, rel=1e-12)
+    assert (b.f0, b.omega, b.f_cr) == (a.f0, a.omega, a.f_cr)
+    # its stiffness: the band's slope F_s / eps_v sets the RK4 step (omega_max about doubles)
+    assert 1.8 < b.omega_max / a.omega_max <= 2.0
 
 
 def _table(counts: dict) -> pd.DataFrame:
@@ -199,6 +251,8 @@ def test_settings_defaults_are_the_shipped_config_and_bad_values_are_refused():
     props = schema["properties"]["convergence"]["properties"]
     assert {k: v["default"] for k, v in props.items()} == {"sample": 20, "seed": 0,
                                                            "refinements": list(REFINEMENTS)}
+    # every refinement the config can name is one of the module's (and only those)
+    assert props["refinements"]["items"]["enum"] == list(REFINEMENTS)
     assert ConvergenceSettings.from_dict({}) == ConvergenceSettings()
     assert schema["$defs"]["model"]["properties"]["n_modes"]["maximum"] == MAX_MODES
     assert ConvergenceSettings.from_dict({"sample": 0}).active == ()
@@ -229,7 +283,7 @@ def test_a_linear_point_keeps_its_label_under_every_refinement(tmp_path):
     table = assemble_regime_table(pts, sim, lyap, classify_points(sim, lyap, lle_resolution(nm)))
     assert table["label"].iloc[0] == "periodic" and not table["slipped"].iloc[0]
     settings = ConvergenceSettings(sample=1)
-    for ref in REFINEMENTS:
+    for ref in grid_refinements(REFINEMENTS, [point], "g"):  # every knob of the stick-slip law
         runs = convergence_runs(table, ref, nm, settings, str(tmp_path), axes=["f0_rel"], threads=2)
         assert len(runs) == 1
         r = runs.iloc[0]

@@ -10,6 +10,7 @@ import pytest
 import yaml
 from snakemake.exceptions import WorkflowError
 
+from analysis.pipeline.convergence import ConvergenceSettings
 from analysis.pipeline.grid import expand_grid
 from analysis.pipeline.validation import (
     load_yaml_mapping,
@@ -142,11 +143,11 @@ def test_contradicting_numerics_are_one_line_before_any_point(tmp_path):
     (dict(method="expo"), ("numerics.method = 'expo'", "law='rigid-stick'")),
     (dict(method="newmark"), ("numerics.method = 'newmark'", "law='rigid-stick'")),
     (dict(method="auto", lyapunov="expo"), ("numerics.lyapunov.method = 'expo'", "law='rigid-stick'")),
-    (dict(method="auto", refinements=["step", "k_t"]), ("'k_t'", "rigid-stick", "no stick stiffness")),
 ])
-def test_rigid_stick_with_an_integrator_or_refinement_it_lacks_is_one_line(tmp_path, edit, words):
-    """The rigid stick has no ``expo``/``newmark`` integrator and no stick stiffness to refine:
-    either is refused at planning, in one line naming the key."""
+def test_rigid_stick_with_an_integrator_it_lacks_is_one_line(tmp_path, edit, words):
+    """The rigid stick has no ``expo``/``newmark`` integrator: refused at planning, in one line
+    naming the key.  (Its missing stick stiffness is not an error: its grids do not run ``k_t``,
+    ``test_each_grid_plans_the_refinements_of_its_law``.)"""
     from analysis.pipeline.plan import build_plan
 
     cfg = _config()
@@ -163,6 +164,50 @@ def test_rigid_stick_with_an_integrator_or_refinement_it_lacks_is_one_line(tmp_p
     assert msg.startswith("invalid config:") and "\n" not in msg, msg
     for w in words:
         assert w in msg, msg
+
+
+@pytest.mark.parametrize("law, knob", [("stick-slip", "k_t"), ("stribeck", "band"),
+                                       ("full-slip", "band"), ("rigid-stick", None)])
+def test_each_grid_plans_the_refinements_of_its_law(tmp_path, law, knob):
+    """``k_t`` is the stick-slip law's interface knob, ``band`` (the velocity band) the
+    regularised laws', the rigid stick has neither: from the shipped list each grid gets its
+    law's, and the estimate and the workflow see only those."""
+    from analysis.pipeline.plan import build_plan
+
+    cfg = _config()
+    cfg["model"]["law"] = law
+    if law == "rigid-stick":
+        cfg["model"]["mu_s"] = cfg["model"]["mu_k"] = 0.3
+    cfg["grid_file"] = str(_equal_coefficients_grid(tmp_path) if law == "rigid-stick"
+                           else ROOT / "config" / "grid.yaml")
+    plan = build_plan(cfg, SCHEMA.parent)
+    shipped = ConvergenceSettings().refinements
+    assert plan.convergence.refinements == shipped
+    want = tuple(r for r in shipped if r not in ("k_t", "band") or r == knob)
+    assert plan.grid_refinements == {g: want for g in plan.points}
+    cfg["convergence"] = {"sample": 0}
+    assert build_plan(cfg, SCHEMA.parent).grid_refinements == {g: () for g in plan.points}
+
+
+def test_a_grid_mixing_laws_of_different_knobs_is_one_line(tmp_path):
+    """A grid whose axis is the law: ``k_t`` would refine some of its points and not others,
+    so its row would mix knobs; refused at planning, in one line naming the key and the law."""
+    from analysis.pipeline.plan import build_plan
+
+    cfg = _config()
+    grids = {"grids": {"laws": {"axes": {"law": {"values": ["stick-slip", "stribeck"]}},
+                                "fixed": {"Omega": 1.5, "f0_rel": 2.0}}}}
+    path = tmp_path / "grid.yaml"
+    path.write_text(yaml.safe_dump(grids))
+    cfg["grid_file"] = str(path)
+    with pytest.raises(WorkflowError) as err:
+        build_plan(cfg, SCHEMA.parent)
+    msg = str(err.value)
+    assert msg.startswith("invalid config:") and "\n" not in msg, msg
+    for w in ("convergence.refinements", "'k_t'", "grid laws", "law stribeck"):
+        assert w in msg, msg
+    cfg["convergence"] = {"refinements": ["step", "modes"]}
+    assert build_plan(cfg, SCHEMA.parent).grid_refinements == {"laws": ("step", "modes")}
 
 
 def _equal_coefficients_grid(tmp_path):

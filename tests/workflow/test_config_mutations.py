@@ -163,3 +163,28 @@ def test_a_broken_config_file_stops_snakemake_in_one_line(tmp_path, edit, words)
     assert "config/config.yaml" in lines[0]
     assert not (tmp_path / "results").exists()
     assert tree_digest(tmp_path / "config") == before
+
+
+def test_each_grid_runs_the_refinements_of_its_law_in_the_dag(tmp_path):
+    """The wiring of ``Plan.grid_refinements`` (a real ``snakemake -n``): from one refinement
+    list a stick-slip grid's convergence runs are ``k_t``'s and a Stribeck grid's ``band``'s,
+    and neither gets the other's; a grid with no refinement of its law gets no convergence
+    table or figure."""
+    from workflow_run import setup_workdir
+
+    grid = {"grids": {
+        "dry": {"axes": {"f0_rel": [0.5, 3.0]}, "fixed": {"Omega": 2.5}},
+        "wet": {"axes": {"f0_rel": [0.5, 3.0]}, "fixed": {"Omega": 2.5, "law": "stribeck", "v_s": 4e-4}},
+        "rigid": {"axes": {"f0_rel": [0.5, 3.0]}, "fixed": {"Omega": 2.5, "law": "rigid-stick",
+                                                              "mu_s": 0.3, "mu_k": 0.3}}}}
+    work = setup_workdir(tmp_path / "w", grid=grid,
+                         convergence={"sample": 1, "seed": 0, "refinements": ["k_t", "band"]})
+    res = subprocess.run(snakemake_command(work, "-n", "regimes"), capture_output=True, text=True,
+                         timeout=300, env=snakemake_env())
+    assert res.returncode == 0, res.stderr[-3000:]
+    out = res.stdout + res.stderr
+    assert "results/regimes/dry/convergence/k_t.parquet" in out
+    assert "results/regimes/wet/convergence/band.parquet" in out
+    for absent in ("dry/convergence/band", "wet/convergence/k_t", "rigid/convergence"):
+        assert absent not in out, absent
+    assert not (work / "results").exists()

@@ -44,6 +44,9 @@ STAGE_METHODS = {"simulate": PLAN.simulation_methods, "lyapunov": PLAN.lyapunov_
 CONVERGENCE = PLAN.convergence
 CONVERGENCE_SETTINGS = {"sample": CONVERGENCE.sample, "seed": CONVERGENCE.seed,
                         "refinements": list(CONVERGENCE.refinements)}
+#: per grid, the refinements that run: the knobs of its law among them (k_t: stick-slip; band:
+#: full-slip, stribeck), none when convergence.sample is 0
+GRID_REFINEMENTS = PLAN.grid_refinements
 #: the runs of a map's cells from other starts (analysis.pipeline.cell_attractors)
 MULTISTABILITY = PLAN.multistability
 MULTISTABILITY_SETTINGS = MULTISTABILITY.as_dict()
@@ -64,7 +67,7 @@ PAPER_STRIBECK = stribeck_constants(PAPER.paper, PAPER.model)
 if workflow.is_main_process:  # not in the per-job processes of a cluster executor
     # the convergence refinements whose runs are not on disk yet
     PENDING_CONVERGENCE = [
-        (POINTS[g], [r for r in CONVERGENCE.active
+        (POINTS[g], [r for r in GRID_REFINEMENTS[g]
                      if not Path(f"results/regimes/{g}/convergence/{r}.parquet").exists()],
          CONVERGENCE.sample)
         for g in GRIDS["grids"]
@@ -141,12 +144,13 @@ def convergence_mode_files(wildcards) -> list[str]:
 
 def convergence_files(wildcards) -> list[str]:
     """The per-refinement convergence runs of a grid (none when ``convergence.sample`` is 0)."""
-    return [f"results/regimes/{wildcards.grid}/convergence/{r}.parquet" for r in CONVERGENCE.active]
+    return [f"results/regimes/{wildcards.grid}/convergence/{r}.parquet"
+            for r in GRID_REFINEMENTS[wildcards.grid]]
 
 
 def convergence_table(wildcards) -> list[str]:
     """The convergence table a grid's map figure reports (none when ``convergence.sample`` is 0)."""
-    return [f"results/regimes/{wildcards.grid}/convergence.parquet"] if CONVERGENCE.active else []
+    return [f"results/regimes/{wildcards.grid}/convergence.parquet"] if GRID_REFINEMENTS[wildcards.grid] else []
 
 
 def attractor_table(wildcards) -> list[str]:

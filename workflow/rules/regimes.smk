@@ -321,7 +321,7 @@ rule regimes:
         expand("results/regimes/{grid}/lle.png", grid=list(GRIDS["grids"])),
         expand("results/regimes/{grid}/portraits.png", grid=list(GRIDS["grids"])),
         expand("results/regimes/{grid}/convergence.png",
-               grid=list(GRIDS["grids"]) if CONVERGENCE.active else []),
+               grid=[g for g in GRIDS["grids"] if GRID_REFINEMENTS[g]]),
         expand("results/regimes/{grid}/attractors.parquet",
                grid=list(GRIDS["grids"]) if MULTISTABILITY.active else []),
         expand("results/regimes/{grid}/lifetimes.parquet",
