@@ -18,6 +18,9 @@ k_t study of docs/pipeline.md):
     .venv/bin/python benchmarks/interface_convergence.py --cells 20 --set k_t=30 \
         --set interface_damping=0 --set interface_viscosity=0.0939 --refinements k_t
 
+For a full-slip or Stribeck variant the interface knob is the velocity band, not ``k_t``
+(``--refinements band``; docs/pipeline.md, "The velocity band of the regularised laws").
+
 ``--refinements`` with no name prints the variant's labels only; ``--config`` with a
 ``grid_file`` of its own runs the cells of another grid (e.g. a 1-D line through a band);
 ``--save PREFIX`` keeps the variant's table and the refinement runs as Parquet files (e.g. to

@@ -150,13 +150,15 @@ def grid_refinements(refinements: Sequence[str], points: Sequence[Mapping], grid
     and ``band``; a stick-slip grid runs the first, a Stribeck grid the second).  A refinement
     that applies to some of the grid's points and not to others (a grid whose axis is the law)
     is an error: its row would mix knobs."""
+    from beamsim.friction import Friction
+
     keep = []
     for ref in refinements:
         ok = [applies(ref, p) for p in points]
         if all(ok):
             keep.append(ref)
         elif any(ok):
-            laws = sorted({str(p.get("law")) for p, a in zip(points, ok) if not a})
+            laws = sorted({str(p.get("law", Friction.law)) for p, a in zip(points, ok) if not a})
             raise ValueError(f"convergence.refinements: {ref!r} is a knob of some points of grid "
                              f"{grid} but not of those of law {', '.join(laws)}: give the laws "
                              f"grids of their own")

@@ -143,14 +143,18 @@ def convergence_mode_files(wildcards) -> list[str]:
 
 
 def convergence_files(wildcards) -> list[str]:
-    """The per-refinement convergence runs of a grid (none when ``convergence.sample`` is 0)."""
+    """The per-refinement convergence runs of a grid (none when ``convergence.sample`` is 0 or
+    no refinement of the list is a knob of the grid's law)."""
     return [f"results/regimes/{wildcards.grid}/convergence/{r}.parquet"
             for r in GRID_REFINEMENTS[wildcards.grid]]
 
 
 def convergence_table(wildcards) -> list[str]:
-    """The convergence table a grid's map figure reports (none when ``convergence.sample`` is 0)."""
-    return [f"results/regimes/{wildcards.grid}/convergence.parquet"] if GRID_REFINEMENTS[wildcards.grid] else []
+    """The convergence table a grid's map figure reports (none when the grid has no convergence
+    runs: :func:`convergence_files`)."""
+    if not GRID_REFINEMENTS[wildcards.grid]:
+        return []
+    return [f"results/regimes/{wildcards.grid}/convergence.parquet"]
 
 
 def attractor_table(wildcards) -> list[str]:
