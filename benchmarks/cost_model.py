@@ -21,6 +21,7 @@ Usage::
 
     .venv/bin/python benchmarks/cost_model.py            # measure and print (minutes)
     .venv/bin/python benchmarks/cost_model.py --write    # ... and update the cost model
+    .venv/bin/python benchmarks/cost_model.py --laws     # RK4's steps by friction law (seconds)
 """
 
 from __future__ import annotations
@@ -86,12 +87,45 @@ def run_batch(n_modes: int, nm: Numerics, lyapunov: bool) -> dict:
     return out
 
 
+#: the laws of :func:`rk4_by_law` at Fig 13's middle point (docs/pipeline.md, "The velocity band
+#: of the regularised laws"): the paper runs' model, three modes
+LAW_POINT = {"n_modes": 3, "Omega": 1.5, "f0_rel": 1.3333, "mu_s": 0.3, "mu_k": 0.3, "p": 1e-4,
+             "interface_damping": 0.5}
+LAWS = {"stick-slip": {}, "stribeck": {"law": "stribeck", "F_s": 3e-5, "F_c": 1.5e-5, "v_s": 4e-4},
+        "full-slip": {"law": "full-slip"}}
+
+
+def rk4_by_law(periods: int = 20) -> None:
+    """RK4's steps per period and cost per step by friction law at one point (step factor 1,
+    one thread), beside :func:`analysis.pipeline.cost.rk4_stiffness`, which scales the RK4
+    coefficients by the steps (docs/reliability.md, "RK4's step follows the point's
+    stiffness")."""
+    from analysis.pipeline.cost import rk4_stiffness
+    from beamsim.simulate import simulate_batch
+
+    print("| law | steps per period | us per step | rk4_stiffness |")
+    print("|---|---|---|---|")
+    for name, extra in LAWS.items():
+        p = LAW_POINT | extra
+        simulate_batch([p], n_transient=0, n_record=1, method="rk4", step_factor=1.0, n_threads=1)
+        t0 = time.perf_counter()
+        r = simulate_batch([p], n_transient=0, n_record=periods, method="rk4", step_factor=1.0,
+                           n_threads=1)[0]
+        us = 1e6 * (time.perf_counter() - t0) / (periods * r.steps_per_period)
+        print(f"| {name} | {r.steps_per_period} | {us:.2f} | {rk4_stiffness(p):.2f} |", flush=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--modes", type=int, nargs="*", default=[1, 2, 3])
     ap.add_argument("--write", action="store_true", help=f"update {COST_MODEL_FILE.name}")
+    ap.add_argument("--laws", action="store_true",
+                    help="only RK4's steps and cost per step by friction law (seconds)")
     args = ap.parse_args(argv)
     warnings.filterwarnings("ignore", category=RuntimeWarning, module="nolds")  # short series
+    if args.laws:
+        rk4_by_law()
+        return 0
 
     for stage in ("simulate", "lyapunov"):
         compile_kernels(stage, methods=("expo", "rk4"))

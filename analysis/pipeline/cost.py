@@ -3,10 +3,11 @@
 The estimate is a cost model, ``seconds = c * periods / Omega``, per stage and point:
 
 * simulate: ``c_sim(method, n_modes) * (n_transient + n_record) / Omega`` (RK4 also scaled by
-  ``1 / step_factor``): the integrators' cost is proportional to the simulated time, and a
-  forcing period is ``2 pi / (Omega omega_1)`` long;
+  ``1 / step_factor`` and by the point's stiffness, :func:`rk4_stiffness`): the integrators'
+  cost is proportional to the simulated time, and a forcing period is ``2 pi / (Omega
+  omega_1)`` long;
 * lyapunov: ``c_lyap(free copy's method, n_modes) * periods / Omega`` (the RK4 pair's also
-  scaled by ``0.5 / step_factor``) with ``periods`` the
+  scaled by ``0.5 / step_factor`` and by the stiffness) with ``periods`` the
   Stefanski window ``n_periods`` plus, for the expected share :data:`LONG_RECORD_SHARE` of the
   points that need the label's long Benettin record, the periods its expected length (the first
   run plus the share :data:`LONG_RECORD_REACH` of its boundary of the way from it to the
@@ -18,8 +19,8 @@ The estimate is a cost model, ``seconds = c * periods / Omega``, per stage and p
 * the convergence runs (:mod:`analysis.pipeline.convergence`; :func:`convergence_seconds`):
   per grid and pending refinement, the sample size times the mean estimate of the grid's points
   with that refinement applied (the sample is drawn from the finished map, so its points are
-  not known before; the store is not consulted).  The cost model does not see ``k_t``: the
-  stiffer interface's shorter RK4 step in the Lyapunov runs is not in the estimate;
+  not known before; the store is not consulted; a refinement that stiffens the model,
+  ``k_t`` or ``band``, costs its RK4 runs' shorter step through :func:`rk4_stiffness`);
 * the continuation lines (:mod:`analysis.continuation`): both stages for every point of a
   pending line, twice (up- and down-sweep);
 * the multistability runs (:mod:`analysis.pipeline.cell_attractors`;
@@ -59,7 +60,7 @@ if TYPE_CHECKING:
     from analysis.pipeline.chaos_lifetime import LifetimeSettings
 
 __all__ = ["COST_MODEL_FILE", "Estimate", "LONG_RUN_SECONDS", "convergence_seconds", "estimate_run",
-           "lifetime_seconds", "load_cost_model", "multistability_seconds"]
+           "lifetime_seconds", "load_cost_model", "multistability_seconds", "rk4_stiffness"]
 
 COST_MODEL_FILE = Path(__file__).with_name("cost_model.yaml")
 #: a run estimated longer than this on the current cores needs ``--config allow_long=True``
@@ -145,6 +146,28 @@ def _coefficient(table: Mapping, n_modes: int) -> float:
     return float(table[top]) * growth ** (n_modes - top)
 
 
+def rk4_stiffness(params: Mapping) -> float:
+    """A point's RK4 steps per unit time relative to those the cost model's RK4 coefficients
+    were measured with: its largest rate ``omega_max`` (:func:`beamsim.point.prepare_point`:
+    the stuck beam's for stick-slip, the free beam's plus the velocity band's viscous rate for
+    the regularised laws, the free beam's for the rigid stick), over that of the stuck
+    stick-slip beam of its geometry at the default ``k_t`` (the default grid's, on which
+    ``benchmarks/cost_model.py`` measures).  The RK4 step is ``step_factor / omega_max`` and
+    costs about the same whatever the law (docs/reliability.md), so its cost follows this ratio.
+    ``1`` for a stick-slip point at the default ``k_t`` (without building its model)."""
+    from dataclasses import replace
+
+    from beamsim.two_layer import Geometry, build_model
+
+    default_k_t = float(params.get("k_t", Geometry.k_t)) == Geometry.k_t
+    if params.get("law", "stick-slip") == "stick-slip" and default_k_t:
+        return 1.0
+    from beamsim.point import prepare_point
+
+    pp = prepare_point(**params)
+    return pp.omega_max / build_model(replace(pp.model.geom, k_t=Geometry.k_t)).omega_max_stuck
+
+
 def point_seconds(params: Mapping, numerics: Numerics, model: Mapping, stages: Iterable[str]) -> float:
     """Estimated single-thread seconds of one point's ``stages`` (``simulate``, ``lyapunov``)."""
     n_modes = int(params.get("n_modes", 1))
@@ -153,7 +176,7 @@ def point_seconds(params: Mapping, numerics: Numerics, model: Mapping, stages: I
     if "simulate" in stages:
         method = integrator(numerics.method, params)
         c = _coefficient(model["simulate"][method], n_modes)
-        scale = 1.0 / numerics.step_factor if method == "rk4" else 1.0
+        scale = rk4_stiffness(params) / numerics.step_factor if method == "rk4" else 1.0
         run = numerics.n_transient + numerics.n_record
         if numerics.n_transient_max >= numerics.n_transient + run:
             run *= 1.0 + EXTENDED_SHARE
@@ -168,7 +191,7 @@ def point_seconds(params: Mapping, numerics: Numerics, model: Mapping, stages: I
         share = LONG_RECORD_REACH[plan.boundary]
         reach = plan.first_periods + share * (plan.max_periods - plan.first_periods)
         extra = max(0.0, reach - ly.n_periods)
-        scale = 0.5 / ly.step_factor if free == "rk4" else 1.0
+        scale = 0.5 * rk4_stiffness(params) / ly.step_factor if free == "rk4" else 1.0
         seconds += c * (ly.n_periods + LONG_RECORD_SHARE * extra) * scale / omega
     return seconds
 
@@ -221,7 +244,7 @@ def lifetime_seconds(points: Sequence, numerics: Numerics, settings: LifetimeSet
     cells = min(settings.max_cells, max(1, round(LIFETIME_CELL_SHARE * len(points))))
     def per_period(params: Mapping) -> float:  # point_seconds' simulate cost of one period
         method = integrator(numerics.method, params)
-        scale = 1.0 / numerics.step_factor if method == "rk4" else 1.0
+        scale = rk4_stiffness(params) / numerics.step_factor if method == "rk4" else 1.0
         c = _coefficient(model["simulate"][method], int(params.get("n_modes", 1)))
         return c * scale / float(params.get("Omega", 1.0))
 

@@ -11,7 +11,15 @@ from snakemake.exceptions import WorkflowError
 from workflow_run import setup_workdir, snakemake
 
 from analysis.pipeline.config import LyapunovNumerics, Numerics
-from analysis.pipeline.cost import LONG_RUN_SECONDS, Estimate, estimate_run, load_cost_model
+from analysis.pipeline.convergence import refine
+from analysis.pipeline.cost import (
+    LONG_RUN_SECONDS,
+    Estimate,
+    estimate_run,
+    load_cost_model,
+    point_seconds,
+    rk4_stiffness,
+)
 from analysis.pipeline.grid import expand_grid
 from analysis.pipeline.preflight import check_results_dir, check_run_length
 from analysis.pipeline.store import PointStore
@@ -91,6 +99,37 @@ def test_the_convergence_runs_are_in_the_estimate(tmp_path):
     assert "3 convergence / continuation / multistability / lifetime runs" in many.summary(2)
     one = estimate_run(pts, Numerics(), tmp_path, convergence=[(pts, ["k_t"], 1)])
     assert "1 convergence / continuation / multistability / lifetime run;" in one.summary(2)
+
+
+def test_an_rk4_run_costs_its_steps():
+    """RK4's step is ``step_factor / omega_max``, so a stiffer point costs more steps per
+    period: the regularised laws' velocity band (a stiff dashpot, slope ``F_s / eps_v``), a
+    stiffer stick (``k_t x 3``); the rigid stick, without penalty springs, fewer.  The cost
+    model's RK4 coefficients were measured on stick-slip points at the default ``k_t``, whose
+    ratio is exactly 1.  ``expo``'s cost does not follow the step."""
+    model, nm = load_cost_model(), Numerics()
+    dry = MODEL | {"Omega": 1.5}
+    assert rk4_stiffness(dry) == 1.0
+    wet = dry | {"law": "stribeck", "mu_s": 0.3, "v_s": 4e-4}
+    ratio = rk4_stiffness(wet)
+    assert ratio > 2  # the band's rate is several times the stuck beam's fastest mode
+    rk4 = Numerics(method="rk4")
+    assert point_seconds(wet, nm, model, ("simulate",)) == pytest.approx(
+        ratio * point_seconds(wet | {"law": "stick-slip"}, rk4, model, ("simulate",)))
+    # its Lyapunov pair is RK4 (the regularised laws have no expo): the same factor
+    pair = Numerics(lyapunov=LyapunovNumerics(method="rk4"))
+    assert point_seconds(wet, nm, model, ("lyapunov",)) == pytest.approx(
+        ratio * point_seconds(wet | {"law": "stick-slip"}, pair, model, ("lyapunov",)))
+    # halving the band doubles its rate, not the free beam's: between 1.5x and 2x the steps
+    narrow, _ = refine("band", wet, nm)
+    assert 1.5 < rk4_stiffness(narrow) / ratio < 2.0
+    # a stiffer stick: more RK4 steps, the same expo estimate
+    stiff, _ = refine("k_t", dry, nm)
+    assert rk4_stiffness(stiff) > 1.2
+    assert point_seconds(stiff, nm, model, ("simulate",)) == point_seconds(dry, nm, model, ("simulate",))
+    assert point_seconds(stiff, rk4, model, ("simulate",)) == pytest.approx(
+        rk4_stiffness(stiff) * point_seconds(dry, rk4, model, ("simulate",)))
+    assert rk4_stiffness(dry | {"law": "rigid-stick", "mu_s": 0.3}) < 1.0
 
 
 def test_a_long_run_needs_the_opt_in():
