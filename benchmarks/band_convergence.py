@@ -18,7 +18,7 @@ period relative to their peak-to-peak amplitude, the Poincare state's relative c
 v apart), the spread of the recorded Poincare states (is it settled) and the share of
 interface points inside the band (``stick_fraction``).
 
-    .venv/bin/python benchmarks/band_convergence.py              # both laws, about 8 minutes
+    .venv/bin/python benchmarks/band_convergence.py              # both laws, about 7 minutes
     .venv/bin/python benchmarks/band_convergence.py --law stribeck
 
 Results: docs/pipeline.md, "The velocity band of the regularised laws".

@@ -3,7 +3,8 @@ numerics and model discretisation, and the fraction of points whose label holds.
 
 A label is a result only if it does not move with a numerical knob.  Each refinement of
 :data:`REFINEMENTS` changes one knob of every sampled point (the reference and the refined
-run share everything else) and sends the refined points through the pipeline's own stages
+run share everything else; a grid runs the refinements that are knobs of its friction law,
+:func:`grid_refinements`) and sends the refined points through the pipeline's own stages
 (:func:`analysis.pipeline.stages.simulate_points`, :func:`~analysis.pipeline.stages.lyapunov_points`,
 :func:`~analysis.pipeline.stages.classify_points`), with the refined settings in their point ids
 (so the per-point store caches them like any other point):
@@ -466,7 +467,20 @@ def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
-def summary_line(summary: pd.DataFrame) -> str:
+def unchecked_reason(refinements: Sequence[str], points: Sequence[Mapping]) -> str:
+    """Why a grid has no convergence runs (its map's title says it): ``refinements`` are the
+    config's active ones (none when ``convergence.sample`` is 0), ``points`` the grid's points'
+    parameters, none of whose law has a knob among them (:func:`grid_refinements`)."""
+    from beamsim.friction import Friction
+
+    if not refinements:
+        return "convergence.sample = 0"
+    laws = sorted({str(p.get("law", Friction.law)) for p in points})
+    return (f"none of convergence.refinements ({', '.join(refinements)}) is a knob of law "
+            f"{', '.join(laws)}")
+
+
+def summary_line(summary: pd.DataFrame, unchecked: str = "convergence.sample = 0") -> str:
     """One line for a map's title: ``labels hold (sampled points; 95 % interval): step / 2
     19/20 [0.75-1.00], ...`` (no space inside an interval: a wrapped title keeps it whole),
     followed, when the summary has controls, by ``; of the 9/20 whose label holds under the
@@ -474,9 +488,10 @@ def summary_line(summary: pd.DataFrame) -> str:
     12/20 whose label a grid neighbour shares: step / 2 12/12, ...``, and by the refinements'
     ``unflagged`` counts: ``; moved without a flag (...): step / 2 0, ...``, and, where a
     refinement's runs ended locked below the map's lock-up limit (``locked_moves``), by
-    ``; ended locked below the lock-up limit (...): windows x 2 3``."""
+    ``; ended locked below the lock-up limit (...): windows x 2 3``.  Without runs: ``labels
+    not checked under refinement (<unchecked>)``, the reason (:func:`unchecked_reason`)."""
     if summary is None or summary.empty:
-        return "labels not checked under refinement (convergence.sample = 0)"
+        return f"labels not checked under refinement ({unchecked})"
     parts = [f"{r['what']} {r['held']}/{r['n']} [{r['fraction_lo']:.2f}-{r['fraction_hi']:.2f}]"
              for _, r in summary.iterrows()]
     line = "labels hold (sampled points; 95 % interval): " + ", ".join(parts)

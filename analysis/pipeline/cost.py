@@ -45,6 +45,8 @@ content-addressed store (:mod:`analysis.pipeline.store`) holds no record of it.
 
 from __future__ import annotations
 
+import functools
+import json
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -53,6 +55,7 @@ from typing import TYPE_CHECKING
 import yaml
 
 from analysis.pipeline.config import Numerics
+from analysis.pipeline.grid import canonical_json
 from analysis.pipeline.stages import free_copy_integrator, integrator
 from analysis.pipeline.store import PointStore
 
@@ -154,17 +157,30 @@ def rk4_stiffness(params: Mapping) -> float:
     stick-slip beam of its geometry at the default ``k_t`` (the default grid's, on which
     ``benchmarks/cost_model.py`` measures).  The RK4 step is ``step_factor / omega_max`` and
     costs about the same whatever the law (docs/reliability.md), so its cost follows this ratio.
-    ``1`` for a stick-slip point at the default ``k_t`` (without building its model)."""
-    from dataclasses import replace
-
-    from beamsim.two_layer import Geometry, build_model
+    ``1`` for a stick-slip point at the default ``k_t`` (without building its model), and for a
+    point that :func:`~beamsim.point.prepare_point` refuses (its job will say why; the estimate
+    does not).  Memoised by the point's parameters: the estimate asks once per stage and
+    refinement."""
+    from beamsim.two_layer import Geometry
 
     default_k_t = float(params.get("k_t", Geometry.k_t)) == Geometry.k_t
     if params.get("law", "stick-slip") == "stick-slip" and default_k_t:
         return 1.0
-    from beamsim.point import prepare_point
+    return _stiffness(canonical_json(dict(params)))
 
-    pp = prepare_point(**params)
+
+@functools.lru_cache(maxsize=65536)
+def _stiffness(params_json: str) -> float:
+    """:func:`rk4_stiffness` of the point ``params_json`` (canonical JSON)."""
+    from dataclasses import replace
+
+    from beamsim.point import prepare_point
+    from beamsim.two_layer import Geometry, build_model
+
+    try:
+        pp = prepare_point(**json.loads(params_json))
+    except ValueError:
+        return 1.0
     return pp.omega_max / build_model(replace(pp.model.geom, k_t=Geometry.k_t)).omega_max_stuck
 
 

@@ -26,6 +26,7 @@ from analysis.pipeline.convergence import (
     same_label,
     sample_points,
     summary_line,
+    unchecked_reason,
 )
 from analysis.pipeline.grid import canonical_json, point_id
 from analysis.pipeline.stages import expo_copy_steps
@@ -117,6 +118,16 @@ def test_each_grid_runs_the_knobs_of_its_law():
     # step, windows, modes and the controls are knobs of every law
     mixed = [POINT, POINT | {"law": "stribeck"}]
     assert grid_refinements(refs[:1] + refs[3:], mixed, "g") == ("step", "modes")
+
+
+def test_a_map_without_runs_says_why():
+    """The map's title says why its labels were not checked: no sample, or no refinement of the
+    list is a knob of the grid's law (a grid of law stribeck given only ``k_t``)."""
+    assert summary_line(None) == "labels not checked under refinement (convergence.sample = 0)"
+    assert unchecked_reason((), [POINT]) == "convergence.sample = 0"
+    why = unchecked_reason(("k_t",), [POINT | {"law": "stribeck"}])
+    assert why == "none of convergence.refinements (k_t) is a knob of law stribeck"
+    assert summary_line(None, why) == f"labels not checked under refinement ({why})"
 
 
 @pytest.mark.parametrize("band", [{}, {"eps_rel": 0.02}, {"eps_v": 3e-5}])

@@ -5,17 +5,21 @@ real run without ``allow_long``."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from snakemake.exceptions import WorkflowError
 from workflow_run import setup_workdir, snakemake
 
+from analysis.pipeline.chaos_lifetime import LifetimeSettings
 from analysis.pipeline.config import LyapunovNumerics, Numerics
 from analysis.pipeline.convergence import refine
 from analysis.pipeline.cost import (
     LONG_RUN_SECONDS,
     Estimate,
     estimate_run,
+    lifetime_seconds,
     load_cost_model,
     point_seconds,
     rk4_stiffness,
@@ -23,6 +27,7 @@ from analysis.pipeline.cost import (
 from analysis.pipeline.grid import expand_grid
 from analysis.pipeline.preflight import check_results_dir, check_run_length
 from analysis.pipeline.store import PointStore
+from beamsim.point import period_steps, prepare_point
 
 MODEL = {"n_modes": 2, "mu_s": 0.45, "mu_k": 0.3, "f0_rel": 2.0}
 
@@ -130,6 +135,32 @@ def test_an_rk4_run_costs_its_steps():
     assert point_seconds(stiff, rk4, model, ("simulate",)) == pytest.approx(
         rk4_stiffness(stiff) * point_seconds(dry, rk4, model, ("simulate",)))
     assert rk4_stiffness(dry | {"law": "rigid-stick", "mu_s": 0.3}) < 1.0
+    # the ratio is the kernels' own: RK4's steps per unit time (beamsim.point.period_steps)
+    for p in (wet, narrow, stiff):
+        steps = period_steps(prepare_point(**p), step_factor=1.0) / period_steps(prepare_point(**dry),
+                                                                                    step_factor=1.0)
+        assert rk4_stiffness(p) == pytest.approx(steps, rel=2e-3)
+    # a point the simulator refuses is its job's error, not the estimate's
+    assert rk4_stiffness(wet | {"mu_s": 0.0, "mu_k": 0.0}) == 1.0
+
+
+def test_a_regularised_grids_band_runs_cost_their_steps(tmp_path):
+    """Through the estimate of a run: the ``band`` runs of a Stribeck grid cost 1.5-2x its map's
+    points (the band's rate doubles); the lifetime runs' RK4 copies follow the stiffness too."""
+    nm = Numerics()
+    wet = expand_grid("g", {"axes": {"Omega": [1.5, 2.0]}}, MODEL | {"law": "stribeck", "mu_s": 0.3,
+                                                                     "v_s": 4e-4}, nm.result_dict())
+    base = estimate_run(wet, nm, tmp_path)
+    band = estimate_run(wet, nm, tmp_path, convergence=[(wet, ["band"], 2)])
+    extra = band.cpu_seconds - base.cpu_seconds
+    assert 1.5 * base.cpu_seconds < extra < 2.0 * base.cpu_seconds
+    dry = expand_grid("g", {"axes": {"Omega": [1.5, 2.0]}}, MODEL, nm.result_dict())
+    rk4 = Numerics(method="rk4")
+    settings = LifetimeSettings(labels=("periodic",), copies=2, periods=10)
+    stiff = [replace(p, params=p.params | {"k_t": 30.0}) for p in dry]
+    assert lifetime_seconds(stiff, rk4, settings)[0] == pytest.approx(
+        np.mean([rk4_stiffness(p.params) for p in stiff]) * lifetime_seconds(dry, rk4, settings)[0],
+        rel=0.05)
 
 
 def test_a_long_run_needs_the_opt_in():

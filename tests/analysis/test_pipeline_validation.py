@@ -171,7 +171,7 @@ def test_rigid_stick_with_an_integrator_it_lacks_is_one_line(tmp_path, edit, wor
 def test_each_grid_plans_the_refinements_of_its_law(tmp_path, law, knob):
     """``k_t`` is the stick-slip law's interface knob, ``band`` (the velocity band) the
     regularised laws', the rigid stick has neither: from the shipped list each grid gets its
-    law's, and the estimate and the workflow see only those."""
+    law's (the workflow's use of them: tests/workflow/test_config_mutations.py)."""
     from analysis.pipeline.plan import build_plan
 
     cfg = _config()

@@ -126,6 +126,8 @@ def test_convergence_step_ships_with_the_map(first_run):
     assert (runs["holds"] == (runs["label"] == runs["refined_label"])).all()
     meta = pq.read_schema(out / "tiny" / "convergence.parquet").metadata[b"beamsim.convergence"]
     assert json.loads(meta)["config_hash"] == read_regime_metadata(out / "tiny.parquet")["config_hash"]
+    # the refinements that ran on this grid (all of the list's: each is a knob of stick-slip)
+    assert json.loads(meta)["settings"]["refinements"] == CONVERGENCE["refinements"]
 
 
 def test_multistability_step_ships_with_the_map(first_run):

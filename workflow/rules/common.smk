@@ -1,6 +1,7 @@
 # Checks the config and the grid file, plans the run and provides input functions; nothing else.
 from pathlib import Path
 
+from snakemake.exceptions import WorkflowError
 from snakemake.logging import logger
 
 from analysis.paper.config import build_paper_plan, paper_file
@@ -9,6 +10,7 @@ from analysis.paper.runs import NEEDS_CHAOS_RATIO as PAPER_NEEDS_CHAOS_RATIO
 from analysis.paper.runs import RUN_ITEMS as PAPER_RUN_ITEMS
 from analysis.paper.runs import stribeck_constants
 from analysis.paper.tables import paper_config_hash
+from analysis.pipeline.convergence import unchecked_reason
 from analysis.pipeline.cost import estimate_run
 from analysis.pipeline.grid import RESULTS_VERSION
 from analysis.pipeline.outcome import check_targets_made
@@ -137,6 +139,11 @@ def convergence_mode_files(wildcards) -> list[str]:
     the grid can be in the sample)."""
     from analysis.pipeline.convergence import refine
 
+    if wildcards.refinement not in GRID_REFINEMENTS[wildcards.grid]:
+        raise WorkflowError(f"results/regimes/{wildcards.grid}/convergence/{wildcards.refinement}"
+                            f".parquet: grid {wildcards.grid} runs the refinements "
+                            f"{list(GRID_REFINEMENTS[wildcards.grid])} (the knobs of its law and "
+                            f"convergence.sample > 0)")
     keys = sorted({model_cache_key(refine(wildcards.refinement, p.params, PLAN.numerics)[0])
                    for p in POINTS[wildcards.grid]})
     return [f"results/modes/{k}/modes.parquet" for k in keys]

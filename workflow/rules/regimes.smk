@@ -115,7 +115,9 @@ rule convergence_runs:
         table="results/regimes/{grid}/convergence/{refinement}.parquet",
     params:
         numerics=RESULT_NUMERICS,
-        settings=CONVERGENCE_SETTINGS,
+        # sample and seed (the refinement is the wildcard): a change of the list does not
+        # rerun the refinements that stay
+        settings={"sample": CONVERGENCE.sample, "seed": CONVERGENCE.seed},
         axes=lambda wc: list(GRIDS["grids"][wc.grid]["axes"]),
         store=STORE_ROOT,
     threads: 1
@@ -186,7 +188,8 @@ rule convergence_table:
         table="results/regimes/{grid}/convergence.parquet",
     params:
         config_hash=CONFIG_HASH,
-        settings=CONVERGENCE_SETTINGS,
+        # the refinements that ran on this grid (the knobs of its law)
+        settings=lambda wc: CONVERGENCE_SETTINGS | {"refinements": list(GRID_REFINEMENTS[wc.grid])},
     log:
         "logs/regimes/{grid}/convergence_table.log",
     conda:
@@ -283,6 +286,8 @@ rule regime_figures:
         grid=lambda wc: GRIDS["grids"][wc.grid],
         numerics=RESULT_NUMERICS,
         dpi=config.get("figures", {}).get("dpi", 130),
+        # why a grid without convergence runs has none (its map's title says it)
+        unchecked=lambda wc: unchecked_reason(CONVERGENCE.active, [p.params for p in POINTS[wc.grid]]),
     log:
         "logs/regimes/{grid}/regime_figures.log",
     conda:
