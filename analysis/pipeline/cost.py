@@ -155,8 +155,10 @@ def rk4_stiffness(params: Mapping) -> float:
     the stuck beam's for stick-slip, the free beam's plus the velocity band's viscous rate for
     the regularised laws, the free beam's for the rigid stick), over that of the stuck
     stick-slip beam of its geometry at the default ``k_t`` (the default grid's, on which
-    ``benchmarks/cost_model.py`` measures).  The RK4 step is ``step_factor / omega_max`` and
-    costs about the same whatever the law (docs/reliability.md), so its cost follows this ratio.
+    ``benchmarks/cost_model.py`` measures).  The RK4 step is ``step_factor / omega_max``, so the
+    steps per period follow this ratio; a step of a regularised law costs somewhat more (its
+    traction's ``tanh`` and ``exp``), which the estimate does not carry (measured:
+    docs/reliability.md, "RK4's step follows the point's stiffness").
     ``1`` for a stick-slip point at the default ``k_t`` (without building its model), and for a
     point that :func:`~beamsim.point.prepare_point` refuses (its job will say why; the estimate
     does not).  Memoised by the point's parameters: the estimate asks once per stage and
