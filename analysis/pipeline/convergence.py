@@ -76,7 +76,8 @@ REFINEMENTS = {
 
 #: the friction laws with a velocity band (``tau ~ tanh(v / eps_v)``, docs/model.md section 6): their
 #: interface knob is the band (refinement ``band``), not ``k_t``, which there only sets the
-#: penalty-bonded beam that ``Omega`` and ``f0_rel`` are relative to
+#: penalty-bonded beam that ``Omega`` and ``f0_rel`` are relative to (and, under the dashpot
+#: rule ``interface_damping``, the dashpot coefficient)
 REGULARISED_LAWS = ("full-slip", "stribeck")
 
 #: the entries of :data:`REFINEMENTS` that change the physics (the load), not the numerics
