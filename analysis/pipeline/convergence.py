@@ -130,14 +130,19 @@ class ConvergenceSettings:
 
 
 # ----------------------------------------------------------------------------- refinements
+def _law(params: Mapping) -> str:
+    """A point's friction law (the default when its parameters leave it out)."""
+    from beamsim.friction import Friction
+
+    return str(params.get("law", Friction.law))
+
+
 def applies(refinement: str, params: Mapping) -> bool:
     """Whether ``refinement`` is a knob of the point ``params``: ``k_t`` of the stick-slip law
     (the rigid stick and the regularised laws have no stick stiffness), ``band`` of the
     regularised laws (:data:`REGULARISED_LAWS`), every other refinement of every law.
     :func:`refine` refuses a point it does not apply to."""
-    from beamsim.friction import Friction
-
-    law = params.get("law", Friction.law)
+    law = _law(params)
     if refinement == "k_t":
         return law == "stick-slip"
     if refinement == "band":
@@ -152,15 +157,13 @@ def grid_refinements(refinements: Sequence[str], points: Sequence[Mapping], grid
     and ``band``; a stick-slip grid runs the first, a Stribeck grid the second).  A refinement
     that applies to some of the grid's points and not to others (a grid whose axis is the law)
     is an error: its row would mix knobs."""
-    from beamsim.friction import Friction
-
     keep = []
     for ref in refinements:
         ok = [applies(ref, p) for p in points]
         if all(ok):
             keep.append(ref)
         elif any(ok):
-            laws = sorted({str(p.get("law", Friction.law)) for p, a in zip(points, ok) if not a})
+            laws = sorted({_law(p) for p, a in zip(points, ok) if not a})
             raise ValueError(f"convergence.refinements: {ref!r} is a knob of some points of grid "
                              f"{grid} but not of those of law {', '.join(laws)}: give the laws "
                              f"grids of their own")
@@ -193,18 +196,16 @@ def refine(refinement: str, params: dict, numerics: Numerics | dict) -> tuple[di
                      n_record=2 * nm.n_record,
                      lyapunov=replace(ly, n_periods=2 * ly.n_periods, burn_in=2 * ly.burn_in,
                                       block_periods=2 * ly.block_periods))
-    elif refinement in ("k_t", "band"):
-        if not applies(refinement, p):
-            knob = ("the stick stiffness of law stick-slip" if refinement == "k_t" else
-                    f"the velocity band of the regularised laws ({', '.join(REGULARISED_LAWS)})")
-            raise ValueError(f"refinement {refinement!r} refines {knob}; the point has law "
-                             f"{p.get('law', Friction.law)}")
-        if refinement == "k_t":
-            p["k_t"] = 3.0 * float(p.get("k_t", Geometry.k_t))
-        elif p.get("eps_v") is not None:
-            p["eps_v"] = 0.5 * float(p["eps_v"])
-        else:
-            p["eps_rel"] = 0.5 * float(p.get("eps_rel", Friction.eps_rel))
+    elif refinement in ("k_t", "band") and not applies(refinement, p):
+        knob = ("the stick stiffness of law stick-slip" if refinement == "k_t" else
+                f"the velocity band of the regularised laws ({', '.join(REGULARISED_LAWS)})")
+        raise ValueError(f"refinement {refinement!r} refines {knob}; the point has law {_law(p)}")
+    elif refinement == "k_t":
+        p["k_t"] = 3.0 * float(p.get("k_t", Geometry.k_t))
+    elif refinement == "band" and p.get("eps_v") is not None:
+        p["eps_v"] = 0.5 * float(p["eps_v"])
+    elif refinement == "band":
+        p["eps_rel"] = 0.5 * float(p.get("eps_rel", Friction.eps_rel))
     elif refinement == "modes":
         n = int(p.get("n_modes", Geometry.n_modes))
         if n + 1 > MAX_MODES:
@@ -472,11 +473,9 @@ def unchecked_reason(refinements: Sequence[str], points: Sequence[Mapping]) -> s
     """Why a grid has no convergence runs (its map's title says it): ``refinements`` are the
     config's active ones (none when ``convergence.sample`` is 0), ``points`` the grid's points'
     parameters, none of whose law has a knob among them (:func:`grid_refinements`)."""
-    from beamsim.friction import Friction
-
     if not refinements:
         return "convergence.sample = 0"
-    laws = sorted({str(p.get("law", Friction.law)) for p in points})
+    laws = sorted({_law(p) for p in points})
     return (f"none of convergence.refinements ({', '.join(refinements)}) is a knob of law "
             f"{', '.join(laws)}")
 
