@@ -66,9 +66,14 @@ class LyapunovNumerics:
         when ``expo``'s rounding (up to results version 21) opened separations in one period
         that the RK4 pair's ``1e-6`` would have measured at many points (docs/lyapunov.md,
         sections 12 and 16; version 22 removed that source, section 17, and the choice was
-        not revisited; where the floor approaches ``expo_e0``, ``expo_floor`` applies).  Not
-        part of a point's id
-        when the free copy is RK4's (:meth:`Numerics.result_dict`).
+        not revisited; where the floor approaches ``expo_e0``, ``expo_floor`` applies; the
+        convergence evidence's ``separation`` row divides it by 10).  Not part of a point's
+        id when the free copy is RK4's (:meth:`Numerics.result_dict`).
+    rk4_e0 : initial (and renormalised) scaled separation of the RK4 pair's copies: the free
+        copy where it is RK4's, the RK4 ladder's coupled copies and the second opinion's record
+        (:func:`analysis.lyapunov.beam.beam_lle`'s ``e0``).  Part of a point's id only when it
+        differs from the default ``1e-6``, the separation of every results version before it
+        was a setting (whose ids stay as they were).
     confirm : second opinion on the ``expo`` pair's long record whose interval is not at or
         below ``margin``, one of :data:`CONFIRM_METHODS`: ``contradicted`` (the default since
         2026-11-28) measures such a record again on the RK4 pair (``step_factor``;
@@ -101,6 +106,7 @@ class LyapunovNumerics:
     step_factor: float = 0.5
     method: str = "auto"
     expo_e0: float = 1e-4
+    rk4_e0: float = 1e-6
     ladder: str = "expo"
     confirm: str = "contradicted"
     expo_floor: float | None = 0.1
@@ -190,7 +196,8 @@ class Numerics:
 
     def result_dict(self) -> dict:
         """The settings that change results, resolved, as they enter point ids and the rules'
-        parameters (``steps_per_period`` only when set; ``lyapunov.expo_e0``,
+        parameters (``steps_per_period`` only when set; ``lyapunov.rk4_e0`` only when not
+        ``1e-6``; ``lyapunov.expo_e0``,
         ``lyapunov.confirm`` and ``lyapunov.expo_floor`` only when ``lyapunov.method`` is not
         ``rk4``, i.e. the free copy can be ``expo``'s)."""
         out = asdict(self)
@@ -203,6 +210,9 @@ class Numerics:
             del out["lyapunov"]["expo_e0"]
             del out["lyapunov"]["confirm"]
             del out["lyapunov"]["expo_floor"]
+        if out["lyapunov"]["rk4_e0"] == LyapunovNumerics.rk4_e0:
+            # the RK4 pair's separation before it was a setting: ids as they were
+            del out["lyapunov"]["rk4_e0"]
         if out["lyapunov"]["ladder"] == "expo":
             # the default ladder (results version 13): ids of points that keep it as before
             del out["lyapunov"]["ladder"]

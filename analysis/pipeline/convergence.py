@@ -14,6 +14,11 @@ run share everything else; a grid runs the refinements that are knobs of its fri
   switch checks) and the Lyapunov runs' RK4 step;
 * ``windows``: transient (and its cap), record, Stefanski window, Lyapunov burn-in and blocks
   all twice as long (the same number of blocks, each twice as long);
+* ``separation``: the Lyapunov copies' separation a tenth (``expo_e0`` and ``rk4_e0``): a
+  Benettin exponent is the limit of vanishing separation, so a label that moves with it was
+  read from a finite-size effect or from the integrator's noise (docs/lyapunov.md, sections
+  16-17); the reference runs are the map's (:func:`reuses_reference_runs`), so only the
+  Lyapunov stage runs again;
 * ``k_t``: the Jenkins (stick) stiffness of the interface three times larger (law
   ``stick-slip`` only: the rigid stick has none, and the regularised laws have no stick);
 * ``band``: the velocity band ``eps_v`` of the regularised laws (``full-slip``, ``stribeck``:
@@ -54,9 +59,10 @@ from analysis.pipeline.config import Numerics, as_numerics, check_keys
 from analysis.pipeline.grid import canonical_json, point_id
 
 __all__ = ["CONTROLS", "ConvergenceSettings", "LOAD_SHIFT", "REFINEMENTS", "REGULARISED_LAWS",
-           "applies", "convergence_runs", "convergence_summary", "flagged", "grid_refinements",
-           "held_interval", "label_text", "onto_locked", "refine", "run_metadata", "same_label",
-           "sample_points", "summary_line", "write_convergence_table"]
+           "SEPARATION_FACTOR", "applies", "convergence_runs", "convergence_summary", "flagged",
+           "grid_refinements", "held_interval", "label_text", "onto_locked", "refine",
+           "reuses_reference_runs", "run_metadata", "same_label", "sample_points", "summary_line",
+           "write_convergence_table"]
 
 #: the relative change of the load amplitude of the controls ``load_up`` / ``load_down``
 #: (the size of the change of ``f_cr``, and so of the load at a given ``f0_rel``, that one more
@@ -67,6 +73,7 @@ LOAD_SHIFT = 0.02
 REFINEMENTS = {
     "step": "step / 2",
     "windows": "windows x 2",
+    "separation": "e0 / 10",
     "k_t": "k_t x 3",
     "band": "eps_v / 2",
     "modes": "modes + 1",
@@ -88,6 +95,9 @@ MIN_PER_LABEL = 2
 
 #: confidence level of the interval of the fraction of labels that hold (:func:`held_interval`)
 HELD_CONFIDENCE = 0.95
+
+#: the factor by which the refinement ``separation`` divides the Lyapunov copies' separations
+SEPARATION_FACTOR = 10.0
 
 #: the model's largest Galerkin basis (workflow/schemas/config.schema.yaml, model.n_modes)
 MAX_MODES = 12
@@ -196,6 +206,9 @@ def refine(refinement: str, params: dict, numerics: Numerics | dict) -> tuple[di
                      n_record=2 * nm.n_record,
                      lyapunov=replace(ly, n_periods=2 * ly.n_periods, burn_in=2 * ly.burn_in,
                                       block_periods=2 * ly.block_periods))
+    elif refinement == "separation":
+        nm = replace(nm, lyapunov=replace(ly, expo_e0=ly.expo_e0 / SEPARATION_FACTOR,
+                                          rk4_e0=ly.rk4_e0 / SEPARATION_FACTOR))
     elif refinement in ("k_t", "band") and not applies(refinement, p):
         knob = ("the stick stiffness of law stick-slip" if refinement == "k_t" else
                 f"the velocity band of the regularised laws ({', '.join(REGULARISED_LAWS)})")
@@ -221,6 +234,17 @@ def refine(refinement: str, params: dict, numerics: Numerics | dict) -> tuple[di
     else:
         raise ValueError(f"unknown refinement {refinement!r}; allowed: {', '.join(REFINEMENTS)}")
     return p, nm
+
+
+def reuses_reference_runs(params: Mapping, numerics: Numerics, refined_params: Mapping,
+                          refined_numerics: Numerics) -> bool:
+    """Whether a refined point's reference runs (the simulate stage) are the map's point's:
+    the same parameters and the same numerics but for the Lyapunov stage's (``separation``).
+    Its record is then the map's, to the bit (a point's record depends on its own runs and
+    numerics only), so :func:`convergence_runs` reads it from the store under the map's id
+    instead of running it again, and the run estimate counts the Lyapunov stage alone."""
+    return (dict(refined_params) == dict(params)
+            and replace(refined_numerics, lyapunov=numerics.lyapunov) == numerics)
 
 
 # ----------------------------------------------------------------------------- sample
@@ -312,21 +336,30 @@ def convergence_runs(table: pd.DataFrame, refinement: str, numerics: Numerics | 
     from analysis.pipeline.neighbours import supported
     from analysis.pipeline.stages import classify_points, lle_resolution, lyapunov_points, simulate_points
 
+    base_nm = as_numerics(numerics)
     sample = sample_points(table, settings.sample, settings.seed)
     base_support = supported(sample)
     refined = []
     for _, row in sample.iterrows():
-        params, nm = refine(refinement, json.loads(row["params_json"]), numerics)
-        refined.append({"point_id": point_id(params, nm), "params": params, "numerics": nm})
+        base_params = json.loads(row["params_json"])
+        params, nm = refine(refinement, base_params, base_nm)
+        refined.append({"point_id": point_id(params, nm), "params": params, "numerics": nm,
+                        "map_id": point_id(base_params, base_nm),
+                        "reuse": reuses_reference_runs(base_params, base_nm, params, nm)})
     # one pass of the stages per distinct numerics (a refined step can differ by law)
     labels: dict = {}
     groups: dict = {}
     for r in refined:
-        groups.setdefault(canonical_json(r["numerics"].result_dict()), []).append(r)
-    for members in groups.values():
+        groups.setdefault((canonical_json(r["numerics"].result_dict()), r["reuse"]), []).append(r)
+    for (_, reuse), members in groups.items():
         nm = members[0]["numerics"]
         pts = [{"point_id": r["point_id"], "params": r["params"]} for r in members]
-        sim = simulate_points(pts, nm, store_root, threads)
+        if reuse:  # the map's reference runs (from the store, or run again under the map's ids)
+            sim = simulate_points([{"point_id": r["map_id"], "params": r["params"]} for r in members],
+                                  base_nm, store_root, threads)
+            sim["point_id"] = sim["point_id"].map({r["map_id"]: r["point_id"] for r in members})
+        else:
+            sim = simulate_points(pts, nm, store_root, threads)
         lyap = lyapunov_points(pts, sim, nm, store_root, threads)
         cls = classify_points(sim, lyap, lle_threshold=lle_resolution(nm))
         merged = cls.merge(lyap[["point_id", "lle_mean", "lle_lo", "lle_hi"]], on="point_id").merge(
@@ -392,7 +425,7 @@ def flagged(runs: pd.DataFrame, robust: pd.Series | None) -> np.ndarray:
 
 
 #: the refinements that keep the model (numerics only): the map's lock-up limit is theirs too
-SAME_MODEL = ("step", "windows")
+SAME_MODEL = ("step", "windows", "separation")
 
 
 def onto_locked(runs: pd.DataFrame) -> np.ndarray:

@@ -218,8 +218,10 @@ def convergence_seconds(points: Sequence, numerics: Numerics, refinements: Itera
                         model: Mapping | None = None) -> tuple[float, int]:
     """Estimated single-thread seconds and the number of point runs of one grid's convergence
     runs: for each of ``refinements``, ``min(sample, len(points))`` times the mean of
-    :func:`point_seconds` (both stages) over ``points`` refined."""
-    from analysis.pipeline.convergence import refine
+    :func:`point_seconds` over ``points`` refined: both stages, or the Lyapunov stage alone
+    where the refined point reads the map's reference runs
+    (:func:`analysis.pipeline.convergence.reuses_reference_runs`: ``separation``)."""
+    from analysis.pipeline.convergence import refine, reuses_reference_runs
 
     model = load_cost_model() if model is None else model
     n = min(int(sample), len(points))
@@ -228,7 +230,9 @@ def convergence_seconds(points: Sequence, numerics: Numerics, refinements: Itera
         costs = []
         for p in points:
             params, nm = refine(ref, p.params, numerics)
-            costs.append(point_seconds(params, nm, model, ("simulate", "lyapunov")))
+            stages = (("lyapunov",) if reuses_reference_runs(p.params, numerics, params, nm)
+                      else ("simulate", "lyapunov"))
+            costs.append(point_seconds(params, nm, model, stages))
         if costs and n:
             seconds += n * sum(costs) / len(costs)
             runs += n

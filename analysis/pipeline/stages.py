@@ -454,7 +454,7 @@ def lyapunov_runs(points: list[dict], sim: pd.DataFrame, nm: Numerics, threads: 
             scales = np.stack([attractor_scale(x, response_scale(pp), pp.omega)
                                for x, pp in zip(records, pps)])
             res = beam_lle(pps, starts, scales, n_periods=lopt.n_periods, steps_per_period=rk4_steps,
-                           step_factor=lopt.step_factor, n_threads=threads, plan=plan,
+                           step_factor=lopt.step_factor, e0=lopt.rk4_e0, n_threads=threads, plan=plan,
                            free_method=method, free_steps=spp or None,
                            free_e0=lopt.expo_e0 if method == "expo" else None,
                            ladder_method="expo" if lopt.ladder == "expo" and method == "expo" else "rk4",
@@ -503,7 +503,8 @@ def _second_opinion(res: list, prepared: list, starts: np.ndarray, scales: np.nd
     if not todo:
         return
     stats = rk4_long_record([prepared[k] for k in todo], starts[todo], scales[todo], plan=plan,
-                            steps_per_period=rk4_steps, step_factor=lopt.step_factor, n_threads=threads)
+                            steps_per_period=rk4_steps, step_factor=lopt.step_factor, e0=lopt.rk4_e0,
+                            n_threads=threads)
     for k, st in zip(todo, stats):
         res[k].screen, res[k].statistics = res[k].statistics, st
         res[k].free_copy = RK4_SECOND_OPINION

@@ -5,6 +5,7 @@ refinement."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +24,7 @@ from analysis.pipeline.convergence import (
     grid_refinements,
     held_interval,
     refine,
+    reuses_reference_runs,
     same_label,
     sample_points,
     summary_line,
@@ -60,6 +62,11 @@ def test_each_refinement_changes_its_knob_only():
     assert (ly.n_periods, ly.burn_in, ly.block_periods) == (2 * ly0.n_periods, 2 * ly0.burn_in,
                                                             2 * ly0.block_periods)
     assert (ly.min_blocks, ly.max_blocks, ly.step_factor) == (ly0.min_blocks, ly0.max_blocks, ly0.step_factor)
+    p, r = refine("separation", POINT, nm)  # both pairs' separations a tenth, nothing else
+    assert p == POINT
+    assert r == replace(nm, lyapunov=replace(nm.lyapunov, expo_e0=nm.lyapunov.expo_e0 / 10,
+                                             rk4_e0=nm.lyapunov.rk4_e0 / 10))
+    assert (r.lyapunov.expo_e0, r.lyapunov.rk4_e0) == (pytest.approx(1e-5), pytest.approx(1e-7))
     p, r = refine("k_t", POINT, nm)
     assert p == POINT | {"k_t": 30.0} and r == nm
     p, r = refine("modes", POINT, nm)
@@ -101,6 +108,19 @@ def test_refined_points_have_their_own_ids():
         for ref in refs:
             ids.add(point_id(*refine(ref, point, Numerics())))
         assert len(ids) == 1 + len(refs)
+    # an RK4-pair grid (mu_s = mu_k: expo_e0 is not in its ids): the separation is rk4_e0's
+    rk4 = Numerics.from_dict({"lyapunov": {"method": "rk4"}})
+    assert point_id(*refine("separation", POINT, rk4)) != point_id(POINT, rk4)
+
+
+def test_only_the_separation_reuses_the_maps_reference_runs():
+    """The refinements that change the reference runs' parameters or numerics run them again;
+    ``separation`` changes the Lyapunov stage's numerics alone."""
+    nm = Numerics()
+    for point in (POINT, POINT | {"law": "stribeck"}):
+        for ref in grid_refinements(REFINEMENTS, [point], "g"):
+            p, r = refine(ref, point, nm)
+            assert reuses_reference_runs(point, nm, p, r) == (ref == "separation"), ref
 
 
 def test_each_grid_runs_the_knobs_of_its_law():
@@ -392,3 +412,41 @@ def test_a_move_that_ends_locked_below_the_lock_up_limit_is_counted_apart_from_u
     # without the columns (an older table) nothing counts as explained
     assert not onto_locked(runs.drop(columns="locked")).any()
     assert "lock-up limit" not in summary_line(convergence_summary(runs.drop(columns="locked")))
+
+
+@pytest.mark.parametrize("mu_s, free", [(0.31, "expo"), (0.3, "rk4")])
+def test_the_separation_row_reads_the_maps_reference_runs_and_moves_only_the_copies(tmp_path, mu_s, free):
+    """``separation`` re-runs the Lyapunov stage alone: the refined point's reference run is
+    the map's record, read from the store under the map's id (no simulate record is stored
+    under the refined id), while the Lyapunov copies run again a tenth as far apart -- the
+    ``expo`` pair's ``expo_e0`` at ``mu_s > mu_k``, the RK4 pair's ``rk4_e0`` at ``mu_s =
+    mu_k`` (a separation that did not reach the kernels would give the map's window value to
+    the bit).  At a slipping point on a stable orbit the exponent must not depend on the
+    separation (a dynamical exponent is its limit of vanishing separation): the label,
+    periodic-1 with about half the record's samples slipping, holds, and the two window values
+    agree within the Lyapunov margin."""
+    from analysis.pipeline.stages import classify_points, lle_resolution, lyapunov_points, simulate_points
+    from analysis.pipeline.store import PointStore
+    from analysis.pipeline.table import assemble_regime_table
+
+    nm = Numerics(n_transient=60, n_record=128, n_transient_max=60)
+    point = {"n_modes": 1, "k_t": 10.0, "mu_s": mu_s, "mu_k": 0.3, "Omega": 2.5, "f0_rel": 4.0,
+             "damping": 0.05}
+    pts = [{"point_id": point_id(point, nm), "params": point, "index": [0]}]
+    sim = simulate_points(pts, nm, str(tmp_path), threads=2)
+    lyap = lyapunov_points(pts, sim, nm, str(tmp_path), threads=2)
+    table = assemble_regime_table(pts, sim, lyap, classify_points(sim, lyap, lle_resolution(nm)))
+    assert table["label"].iloc[0] == "periodic" and table["period"].iloc[0] == 1
+    assert 0.3 < sim["stick_fraction"].iloc[0] < 0.7 and lyap["lle_free_copy"].iloc[0] == free
+    runs = convergence_runs(table, "separation", nm, ConvergenceSettings(sample=1), str(tmp_path),
+                            threads=2)
+    rid = runs["refined_point_id"].iloc[0]
+    assert rid != pts[0]["point_id"]
+    assert not PointStore(str(tmp_path), "simulate").has(rid)
+    refined = PointStore(str(tmp_path), "lyapunov").load(rid)
+    assert refined["lle_free_copy"] == free
+    t = 2 * np.pi / float(sim["omega"].iloc[0])
+    base_T, refined_T = lyap["lle_benettin"].iloc[0] * t, refined["lle_benettin"] * t
+    assert base_T != refined_T
+    assert abs(base_T - refined_T) < nm.lyapunov.margin, (base_T, refined_T)
+    assert bool(runs["holds"].iloc[0]), (table["label"].iloc[0], runs["refined_reason"].iloc[0])

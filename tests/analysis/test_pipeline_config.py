@@ -83,6 +83,15 @@ def test_the_free_copys_integrator_and_separation_enter_the_id():
         != point_id(params, Numerics())
     assert point_id(params, Numerics.from_dict({"lyapunov": {"method": "rk4", "expo_e0": 1e-5}})) \
         == point_id(params, rk4)
+    # the RK4 pair's separation: in the id only away from 1e-6, the value of every version
+    # before it was a setting (so the shipped maps keep their ids), and for either free copy
+    assert "rk4_e0" not in Numerics().result_dict()["lyapunov"]
+    written_out = Numerics.from_dict({"lyapunov": {"rk4_e0": 1e-6}})
+    assert point_id(params, written_out) == point_id(params, Numerics())
+    for base in ({}, {"method": "rk4"}):
+        other = Numerics.from_dict({"lyapunov": base | {"rk4_e0": 1e-7}})
+        assert other.result_dict()["lyapunov"]["rk4_e0"] == 1e-7
+        assert point_id(params, other) != point_id(params, Numerics.from_dict({"lyapunov": base}))
 
 
 def test_the_second_opinion_enters_the_id_where_the_free_copy_can_be_expos():

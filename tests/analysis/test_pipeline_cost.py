@@ -82,6 +82,11 @@ def test_the_convergence_runs_are_in_the_estimate(tmp_path):
     windows = estimate_run(pts, Numerics(), tmp_path, convergence=[(pts, ["windows"], 2)])
     assert windows.convergence_runs == 2
     assert windows.cpu_seconds - base.cpu_seconds == pytest.approx(2 * 2 * mean)
+    # a tenth of the separation: the map's reference runs are read, the Lyapunov stage runs
+    sep = estimate_run(pts, Numerics(), tmp_path, convergence=[(pts, ["separation"], 2)])
+    lyap = sum(point_seconds(p.params, Numerics(), load_cost_model(), ("lyapunov",)) for p in pts)
+    assert sep.convergence_runs == 2 and 0 < lyap < base.cpu_seconds
+    assert sep.cpu_seconds - base.cpu_seconds == pytest.approx(2 * lyap / len(pts))
     modes = estimate_run(pts, Numerics(), tmp_path, convergence=[(pts, ["modes"], 2)])
     more = expand_grid("g", {"axes": {"Omega": [2.0, 3.0, 4.0]}}, MODEL | {"n_modes": 3},
                        Numerics().result_dict())
