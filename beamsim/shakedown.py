@@ -34,7 +34,8 @@ import numpy as np
 from beamsim.point import PreparedPoint
 from beamsim.two_layer import first_order_matrix
 
-__all__ = ["LockedOrbit", "lock_ratio", "locked_orbit", "shakedown_ratio", "stuck_traction_bound"]
+__all__ = ["LockedOrbit", "difference_energy", "lock_ratio", "locked_orbit", "shakedown_ratio",
+           "stuck_traction_bound"]
 
 
 def _check_elastic_stick(pp: PreparedPoint, what: str) -> None:
@@ -148,6 +149,37 @@ def locked_orbit(pp: PreparedPoint) -> LockedOrbit:
     state = np.concatenate([q_c + Q.real, (1j * w * Q).real, z, np.zeros(m.n_quad)])
     amp = m.geom.k_t * np.abs(m.S @ Q)
     return LockedOrbit(state=state, ratio=_over(amp, pp.tau_s), kinetic_ratio=_over(amp, pp.tau_k))
+
+
+def difference_energy(pp: PreparedPoint, state: np.ndarray, orbit: LockedOrbit) -> float:
+    """``W``: the energy of the difference between ``state`` and the locked orbit ``orbit``
+    (:func:`locked_orbit`), both at a period boundary (``t`` a multiple of ``2 pi / omega``):
+
+        W = 1/2 e'^T M e' + 1/2 e^T K e + 1/2 k_t sum_j wq_j (S_j e - zeta_j)^2,
+
+    ``e = q - q*``, ``zeta = z - z*``: kinetic, structural and interface-spring energy.  Below
+    the shakedown limit (:func:`shakedown_ratio` below 1) every exact motion of the model has
+    ``dW/dt <= -(1 - kinetic ratio) tau_k,j |z_j'|`` per element, minus the dampers' loss
+    (docs/model.md, section 7): ``W`` never grows, from any state.  A run whose ``W`` grows
+    there is not a motion of the model (the integrator's trouble), which is what the pipeline's
+    shakedown rule checks before it continues a slipping record
+    (:func:`analysis.pipeline.stages.simulate_runs`).
+
+    Parameters
+    ----------
+    pp : a prepared point of the elastic stick-slip law.
+    state : the kernels' state ``(q, v, z, mode)``, length ``2 n + 2 n_quad`` (``mode`` unused).
+    orbit : the point's :func:`locked_orbit`.
+    """
+    _check_elastic_stick(pp, "difference_energy")
+    m = pp.model
+    n, nq = m.n, m.n_quad
+    x, o = np.asarray(state, dtype=float), np.asarray(orbit.state, dtype=float)
+    if x.size != 2 * n + 2 * nq:
+        raise ValueError(f"state must have {2 * n + 2 * nq} entries, got {x.size}")
+    e, ev = x[:n] - o[:n], x[n:2 * n] - o[n:2 * n]
+    r = m.S @ e - (x[2 * n:2 * n + nq] - o[2 * n:2 * n + nq])
+    return float(0.5 * ev @ m.M @ ev + 0.5 * e @ m.K @ e + 0.5 * m.geom.k_t * np.sum(m.wq * r * r))
 
 
 def lock_ratio(pp: PreparedPoint) -> float:

@@ -159,7 +159,11 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
     Shakedown: a record that slips (``stick_fraction`` below 1) at a point below its shakedown
     limit (:func:`locked_ratios`: every motion there slips a finite total distance,
     :func:`beamsim.shakedown.locked_orbit`) is a transient too, continued in the same way; the
-    record carries the point's ``shakedown_ratio``.
+    record carries the point's ``shakedown_ratio``.  The rule holds for exact motions of the
+    model, so it is checked on the runs themselves (:class:`ShakedownWatch`): where the energy
+    of the difference from the locked orbit grows from one run's end to the next, the record
+    is not continued and carries the reason (``shakedown_trouble``), which makes it
+    ``unsettled`` (:func:`unsettled_reason`) instead of labelled by the theorem.
 
     Continuation check (``nm.continuation_check``): a record that passes those tests and starts
     within ``n_transient_max`` periods is continued by ``n_record`` periods (no transient); the
@@ -194,6 +198,7 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
     t_start = [0.0] * len(points)  # time of the kept run's start
     first_slip = [(r.slipped, r.t_first_slip) for r in results]
     kinetic = [locked_ratios(p["params"])[1] for p in points]  # below 1: every motion shakes down
+    watch = ShakedownWatch(points, kinetic, [r.final_state for r in results])
     checked = [not nm.continuation_check] * len(points)  # the record passed a continuation check
     why_continued = [""] * len(points)
     done = [False] * len(points)  # next_run said None: the point's record is final
@@ -203,6 +208,8 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
         r = results[i]
         x = r.poincare_state
         if r.diverged or not np.all(np.isfinite(x)):
+            return None
+        if watch.trouble[i]:
             return None
         if transient_reason(x) is not None or (r.stick_fraction < 1.0 and kinetic[i] < 1.0):
             fits = used[i] + nm.n_record + nm.n_transient <= nm.n_transient_max
@@ -239,6 +246,7 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
                 t_start[i] = t0
                 results[i] = r
                 zeno[i] += r.n_zeno
+                watch.ran(i, r.final_state)
     redo = [i for i, z in enumerate(zeno) if z > 0]
     fallback: dict[int, dict] = {}
     if redo:
@@ -247,13 +255,65 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
         rk4 = replace(nm, method="rk4", steps_per_period=None)
         fallback = dict(zip(redo, simulate_runs([points[i] for i in redo], rk4, threads)))
     return [fallback[i] | {"method": ZENO_FALLBACK} if i in fallback else
-            _simulate_record(r, n_tr, t_run, first, why, kin)
-            for i, (r, n_tr, t_run, first, why, kin) in enumerate(
-                zip(results, used, t_start, first_slip, why_continued, kinetic))]
+            _simulate_record(r, n_tr, t_run, first, why, kin, trouble)
+            for i, (r, n_tr, t_run, first, why, kin, trouble) in enumerate(
+                zip(results, used, t_start, first_slip, why_continued, kinetic, watch.trouble))]
+
+
+#: the relative growth of ``W`` (:func:`beamsim.shakedown.difference_energy`) over one run that
+#: :class:`ShakedownWatch` reads as trouble (both integrators keep it below 1e-9 per period on
+#: a record that slips for 200 periods below the limit: tests/beamsim/test_shakedown.py)
+SHAKEDOWN_RTOL = 1e-6
+
+
+class ShakedownWatch:
+    """The shakedown rule's premise, checked on the runs of :func:`simulate_runs`: below its
+    shakedown limit (``kinetic`` below 1) a point's energy of the difference from the locked
+    orbit, ``W`` (:func:`beamsim.shakedown.difference_energy`), never grows along an exact
+    motion of the model, from any state (docs/model.md, section 7).  ``W`` is taken at the
+    point's start (``pp.x0``, time 0) and at the end of every run (a period boundary, where the
+    locked orbit's state is its state at time 0); a growth by more than
+    :data:`SHAKEDOWN_RTOL` of the value before sets ``trouble[i]``, the reason, and the point
+    is not continued: its runs are not motions of the model (an integrator's trouble), so the
+    theorem must not label them.  Points above the limit, of other laws, or with a NaN
+    ``kinetic`` are not watched (``trouble`` stays ``""``)."""
+
+    def __init__(self, points: Sequence[dict], kinetic: Sequence[float], first_ends: Sequence):
+        from beamsim.shakedown import difference_energy
+
+        self._energy = difference_energy
+        self.kinetic = list(kinetic)
+        self.trouble = [""] * len(points)
+        self.locked: dict[int, tuple] = {}
+        self.last: dict[int, float] = {}
+        for i, p in enumerate(points):
+            found = point_locked_orbit(p["params"]) if self.kinetic[i] < 1.0 else None
+            if found is not None:
+                self.locked[i] = found
+                self.last[i] = difference_energy(found[0], found[0].x0, found[1])
+                self.ran(i, first_ends[i])
+
+    def ran(self, i: int, final_state) -> None:
+        """Take ``W`` at the end of point ``i``'s latest run (its ``final_state``)."""
+        if i not in self.locked or self.trouble[i]:
+            return
+        pp, orbit = self.locked[i]
+        x = np.asarray(final_state, dtype=float)
+        if not np.all(np.isfinite(x)):
+            return  # a diverged run is labelled as such
+        w, before = self._energy(pp, x, orbit), self.last[i]
+        if w > before * (1.0 + SHAKEDOWN_RTOL):
+            self.trouble[i] = (
+                f"the energy W of the difference from the locked orbit grew from {before:.6g} to "
+                f"{w:.6g} over a run (by {w / before - 1.0:.2g} of it), below the shakedown limit "
+                f"(ratio {self.kinetic[i]:.3f}), where every motion of the model has W falling: the "
+                "run is not a motion of the model (integrator trouble), so the shakedown rule does "
+                "not label it (beamsim.shakedown.difference_energy)")
+        self.last[i] = w
 
 
 def _simulate_record(r, n_transient_used: int, t_run: float, first_slip: tuple[bool, float], why: str,
-                     shakedown: float) -> dict:
+                     shakedown: float, trouble: str = "") -> dict:
     """The simulate stage's record of a point's kept run ``r`` (a ``SimResult``, started at time
     ``t_run``) after ``n_transient_used`` periods (:func:`simulate_runs`)."""
     energy = r.energy
@@ -268,7 +328,7 @@ def _simulate_record(r, n_transient_used: int, t_run: float, first_slip: tuple[b
         "n_transient_used": int(n_transient_used), "continuation_reason": why,
         "diverged": bool(r.diverged), "t_diverged": t_run + r.t_diverged,
         "slipped": bool(first_slip[0]), "t_first_slip": first_slip[1],
-        "stick_fraction": r.stick_fraction, "shakedown_ratio": shakedown,
+        "stick_fraction": r.stick_fraction, "shakedown_ratio": shakedown, "shakedown_trouble": trouble,
         "diss_per_cycle": float(np.mean(diss)) if np.isfinite(diss).all() else np.nan,
         "energy_residual_rel": float(abs(residual) / abs(w_in)) if w_in != 0 else np.nan,
     }
@@ -366,13 +426,25 @@ def locked_ratios(params: dict) -> tuple[float, float]:
     return float(np.max(orbit.ratio)), float(np.max(orbit.kinetic_ratio)) if damped else np.nan
 
 
+def shakedown_trouble(sim_row: pd.Series | dict) -> str:
+    """The record's ``shakedown_trouble`` (:class:`ShakedownWatch`), ``""`` when it has none
+    (also for records stored before the field existed)."""
+    trouble = sim_row.get("shakedown_trouble")
+    return trouble if isinstance(trouble, str) else ""
+
+
 def unsettled_reason(sim_row: pd.Series | dict) -> str | None:
-    """Why a simulate record (finite, not diverged) is still a transient, or ``None``: the
-    record's own tests (:func:`analysis.regimes.transient_reason`), a record that slips below
+    """Why a simulate record (finite, not diverged) is still a transient, or ``None``: first a
+    run that is not a motion of the model below the shakedown limit (:func:`shakedown_trouble`:
+    no verdict on such a record), then the record's own tests
+    (:func:`analysis.regimes.transient_reason`), a record that slips below
     the point's shakedown limit (``shakedown_ratio`` below 1: :func:`simulate_runs`), then the
     last continuation check (``continuation_reason``, :func:`simulate_runs`)."""
     from analysis.regimes import transient_reason
 
+    trouble = shakedown_trouble(sim_row)
+    if trouble:
+        return trouble
     why = transient_reason(poincare_array(sim_row["poincare_state"]))
     if why is not None:
         return why
@@ -717,12 +789,14 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame,
         why_transient = None if (sim["diverged"] or not np.all(np.isfinite(x))) else unsettled_reason(sim)
         if sim["diverged"] or not np.all(np.isfinite(x)):
             row.update(label=DIVERGED, reason="integration diverged")
-        elif why_transient is not None and float(sim.get("shakedown_ratio", np.nan)) < 1.0:
+        elif (why_transient is not None and float(sim.get("shakedown_ratio", np.nan)) < 1.0
+              and not shakedown_trouble(sim)):
             row.update(label=PERIODIC, period=1, reason=shakedown_reason(
                 float(sim["shakedown_ratio"]), int(sim["n_transient_used"]), why_transient))
         elif why_transient is not None:
-            row.update(label=UNSETTLED, reason=f"transient not over after {int(sim['n_transient_used'])} "
-                       f"periods: {why_transient}")
+            row.update(label=UNSETTLED, reason=(
+                f"no verdict: {why_transient}" if shakedown_trouble(sim) else
+                f"transient not over after {int(sim['n_transient_used'])} periods: {why_transient}"))
         else:
             known = not (np.isnan(lam) or np.isnan(lo) or np.isnan(hi))
             res = classify(x, lle_per_period=lam if known else None,

@@ -299,3 +299,53 @@ def test_a_slipping_record_below_the_shakedown_limit_is_continued_until_it_stops
     above = simulate_runs([{"point_id": "b", "params": kicked(1.3)}], nm, 1)[0]
     assert above["n_transient_used"] == 20 and above["stick_fraction"] < 1.0
     assert unsettled_reason(above) is None or "shakedown" not in unsettled_reason(above)
+
+
+@pytest.mark.parametrize("method", ["expo", "rk4"])
+def test_the_shakedown_rule_holds_back_only_runs_whose_energy_falls(method, monkeypatch):
+    """The rule continues a slipping record below the shakedown limit because every exact motion
+    there has a falling energy ``W`` of its difference from the locked orbit
+    (:func:`beamsim.shakedown.difference_energy`).  The pipeline checks that on its own runs
+    (:class:`analysis.pipeline.stages.ShakedownWatch`): on the kicked start at 0.9 of the limit
+    ``W`` at the start and at every run's end falls (both integrators; the independent check:
+    the theorem), by orders of magnitude while the record slips, and no trouble is recorded.
+    Where ``W`` grows (a fake ``W`` that grows after the first run: what an integrator that is
+    not following the model would give) the record is not continued, carries the reason, and
+    is ``unsettled`` with no verdict, not periodic-1 by the theorem."""
+    from kicked_start import kicked_locked_orbit
+
+    import beamsim.shakedown
+    from analysis.pipeline.config import Numerics
+    from analysis.pipeline.stages import locked_ratios, records_table, simulate_runs, unsettled_reason
+    from beamsim.point import prepare_point
+    from beamsim.simulate import state_params
+
+    base = {"n_modes": 1, "mu_s": 0.45, "mu_k": 0.3, "interface_viscosity": 0.0939, "Omega": 2.5,
+            "f0_rel": 0.8}
+    p = base | {"f0_rel": base["f0_rel"] * 0.9 / locked_ratios(base)[1]}
+    pp = prepare_point(**p)
+    p = state_params(p, kicked_locked_orbit(pp), pp.model.n)
+    nm = Numerics(method=method, n_transient=20, n_record=32, n_transient_max=400, continuation_check=False)
+    real = beamsim.shakedown.difference_energy
+    seen: list[float] = []
+
+    def spy(*args):
+        seen.append(real(*args))
+        return seen[-1]
+
+    monkeypatch.setattr(beamsim.shakedown, "difference_energy", spy)
+    rec = simulate_runs([{"point_id": "a", "params": p}], nm, 1)[0]
+    runs = 1 + (rec["n_transient_used"] - 20) // (20 + 32)
+    assert rec["shakedown_trouble"] == "" and rec["stick_fraction"] == 1.0 and runs > 3
+    assert len(seen) == 1 + runs  # the start and every run's end
+    assert np.all(np.diff(seen) <= 1e-9 * np.asarray(seen[:-1])), seen
+    assert seen[-1] < 1e-3 * seen[0]
+    fake = iter([10.0, 8.0, 9.0, 1.0, 0.5, 0.1])
+    monkeypatch.setattr(beamsim.shakedown, "difference_energy", lambda *args: next(fake))
+    rec = simulate_runs([{"point_id": "a", "params": p}], nm, 1)[0]
+    assert "grew from 8 to 9" in rec["shakedown_trouble"] and rec["n_transient_used"] == 20 + 52
+    assert rec["stick_fraction"] < 1.0 and unsettled_reason(rec) == rec["shakedown_trouble"]
+    sim = records_table([{"point_id": "a"}], [rec])
+    lyap = pd.DataFrame([{"point_id": "a", "lle_mean": np.nan, "lle_lo": np.nan, "lle_hi": np.nan}])
+    row = classify_points(sim, lyap).iloc[0]
+    assert row["label"] == "unsettled" and row["reason"].startswith("no verdict: the energy W"), row["reason"]

@@ -7,7 +7,7 @@ from kicked_start import kicked_locked_orbit
 from scipy.linalg import expm
 
 from beamsim.point import prepare_point
-from beamsim.shakedown import lock_ratio, locked_orbit, stuck_traction_bound
+from beamsim.shakedown import difference_energy, lock_ratio, locked_orbit, stuck_traction_bound
 from beamsim.simulate import simulate, state_params
 
 #: one mode, the default grid's friction, below the static slip onset: the start-up slips, the
@@ -243,16 +243,6 @@ def test_the_pipeline_reads_a_failed_decomposition_as_not_proven(stuck_end, monk
     assert np.isnan(stuck_bound(rigid, x))
 
 
-def _difference_energy(pp, x, orbit):
-    """``W``: kinetic, structural and interface-spring energy of the difference between the
-    state ``x`` and the locked orbit's state ``orbit`` (both at a period boundary)."""
-    m = pp.model
-    n, nq = m.n, m.n_quad
-    e, ev = x[:n] - orbit[:n], x[n:2 * n] - orbit[n:2 * n]
-    r = m.S @ e - (x[2 * n:2 * n + nq] - orbit[2 * n:2 * n + nq])
-    return 0.5 * ev @ m.M @ ev + 0.5 * e @ m.K @ e + 0.5 * m.geom.k_t * np.sum(m.wq * r * r)
-
-
 @pytest.mark.parametrize("method", ["expo", "rk4"])
 def test_below_the_shakedown_limit_every_motion_stops_slipping(method):
     """The shakedown limit against the integrators' own stick/slip logic.  At 0.9 of it
@@ -270,11 +260,11 @@ def test_below_the_shakedown_limit_every_motion_stops_slipping(method):
         orbit = locked_orbit(pp)
         n = pp.model.n
         x = kicked_locked_orbit(pp)
-        energy, slipping = [_difference_energy(pp, x, orbit.state)], []
+        energy, slipping = [difference_energy(pp, x, orbit)], []
         for _ in range(250):
             r = simulate(**state_params(point, x, n), n_transient=0, n_record=1, method=method)
             x = np.asarray(r.final_state, dtype=float)
-            energy.append(_difference_energy(pp, x, orbit.state))
+            energy.append(difference_energy(pp, x, orbit))
             slipping.append(r.stick_fraction < 1.0)
         grows = np.max(np.diff(energy) / np.asarray(energy[:-1]))
         if target < 1.0:
