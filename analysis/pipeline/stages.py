@@ -273,7 +273,9 @@ class ShakedownWatch:
     motion of the model, from any state (docs/model.md, section 7).  ``W`` is taken at the
     point's start (``pp.x0``, time 0) and at the end of every run (a period boundary, where the
     locked orbit's state is its state at time 0); a growth by more than
-    :data:`SHAKEDOWN_RTOL` of the value before sets ``trouble[i]``, the reason, and the point
+    :data:`SHAKEDOWN_RTOL` of the value before (or, where that is smaller, of the ``W`` of the
+    state at rest, the locked orbit's own energy: a start on the locked orbit has ``W = 0`` and
+    stays there up to rounding) sets ``trouble[i]``, the reason, and the point
     is not continued: its runs are not motions of the model (an integrator's trouble), so the
     theorem must not label them.  Points above the limit, of other laws, or with a NaN
     ``kinetic`` are not watched (``trouble`` stays ``""``)."""
@@ -286,11 +288,14 @@ class ShakedownWatch:
         self.trouble = [""] * len(points)
         self.locked: dict[int, tuple] = {}
         self.last: dict[int, float] = {}
+        self.scale: dict[int, float] = {}  # W at rest: the locked orbit's own energy
         for i, p in enumerate(points):
             found = point_locked_orbit(p["params"]) if self.kinetic[i] < 1.0 else None
             if found is not None:
+                pp, orbit = found
                 self.locked[i] = found
-                self.last[i] = difference_energy(found[0], found[0].x0, found[1])
+                self.scale[i] = difference_energy(pp, np.zeros_like(orbit.state), orbit)
+                self.last[i] = difference_energy(pp, pp.x0, orbit)
                 self.ran(i, first_ends[i])
 
     def ran(self, i: int, final_state) -> None:
@@ -302,10 +307,11 @@ class ShakedownWatch:
         if not np.all(np.isfinite(x)):
             return  # a diverged run is labelled as such
         w, before = self._energy(pp, x, orbit), self.last[i]
-        if w > before * (1.0 + SHAKEDOWN_RTOL):
+        growth = (w - before) / max(before, self.scale[i])
+        if growth > SHAKEDOWN_RTOL:
             self.trouble[i] = (
                 f"the energy W of the difference from the locked orbit grew from {before:.6g} to "
-                f"{w:.6g} over a run (by {w / before - 1.0:.2g} of it), below the shakedown limit "
+                f"{w:.6g} over a run (by {growth:.2g} of it), below the shakedown limit "
                 f"(ratio {self.kinetic[i]:.3f}), where every motion of the model has W falling: the "
                 "run is not a motion of the model (integrator trouble), so the shakedown rule does "
                 "not label it (beamsim.shakedown.difference_energy)")

@@ -337,10 +337,17 @@ def test_the_shakedown_rule_holds_back_only_runs_whose_energy_falls(method, monk
     rec = simulate_runs([{"point_id": "a", "params": p}], nm, 1)[0]
     runs = 1 + (rec["n_transient_used"] - 20) // (20 + 32)
     assert rec["shakedown_trouble"] == "" and rec["stick_fraction"] == 1.0 and runs > 3
-    assert len(seen) == 1 + runs  # the start and every run's end
-    assert np.all(np.diff(seen) <= 1e-9 * np.asarray(seen[:-1])), seen
-    assert seen[-1] < 1e-3 * seen[0]
-    fake = iter([10.0, 8.0, 9.0, 1.0, 0.5, 0.1])
+    assert len(seen) == 2 + runs  # the state at rest (the scale), the start and every run's end
+    w = seen[1:]
+    assert np.all(np.diff(w) <= 1e-9 * np.asarray(w[:-1])), w
+    assert w[-1] < 1e-3 * w[0]
+    # a start on the locked orbit itself: W = 0 there and after, up to rounding, which is no
+    # growth (measured against the orbit's own energy, not against a zero)
+    monkeypatch.setattr(beamsim.shakedown, "difference_energy", real)
+    on = state_params(p, beamsim.shakedown.locked_orbit(pp).state, pp.model.n)
+    rec = simulate_runs([{"point_id": "o", "params": on}], nm, 1)[0]
+    assert rec["shakedown_trouble"] == "" and rec["stick_fraction"] == 1.0
+    fake = iter([1.0, 10.0, 8.0, 9.0, 1.0, 0.5, 0.1])  # W at rest (the scale), the start, runs
     monkeypatch.setattr(beamsim.shakedown, "difference_energy", lambda *args: next(fake))
     rec = simulate_runs([{"point_id": "a", "params": p}], nm, 1)[0]
     assert "grew from 8 to 9" in rec["shakedown_trouble"] and rec["n_transient_used"] == 20 + 52
