@@ -25,7 +25,7 @@ import numpy as np
 from analysis.pipeline.config import Numerics, as_numerics
 
 #: bump when a code change alters results for unchanged parameters (invalidates all ids)
-RESULTS_VERSION = "24"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
+RESULTS_VERSION = "25"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
 #                        conjugate pairs with damping, kernels with reassociated sums; 8: the
 #                        continuation check (the record kept is the continued one); 9: the
 #                        Lyapunov stage's free copy on expo (numerics.lyapunov.method: auto);
@@ -61,7 +61,11 @@ RESULTS_VERSION = "24"  # 6: adaptive transients, block statistics of lambda_1; 
 #                        long record's looks on an O'Brien-Fleming boundary
 #                        (numerics.lyapunov.boundary; each look at 95 % before); 24: a record
 #                        that slips below the point's shakedown limit is a transient
-#                        (beamsim.shakedown; the simulate record's shakedown_ratio)
+#                        (beamsim.shakedown; the simulate record's shakedown_ratio); 25:
+#                        that rule checked by its energy (stages.ShakedownWatch): a record
+#                        whose W grows there is unsettled, not periodic-1 by the theorem
+#                        (the simulate record's shakedown_trouble; the shipped maps' labels
+#                        are version 24's)
 
 
 def _canonical(value):

@@ -198,7 +198,7 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
     t_start = [0.0] * len(points)  # time of the kept run's start
     first_slip = [(r.slipped, r.t_first_slip) for r in results]
     kinetic = [locked_ratios(p["params"])[1] for p in points]  # below 1: every motion shakes down
-    watch = ShakedownWatch(points, kinetic, [r.final_state for r in results])
+    watch = ShakedownWatch(points, kinetic, [None if r.diverged else r.final_state for r in results])
     checked = [not nm.continuation_check] * len(points)  # the record passed a continuation check
     why_continued = [""] * len(points)
     done = [False] * len(points)  # next_run said None: the point's record is final
@@ -246,7 +246,7 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
                 t_start[i] = t0
                 results[i] = r
                 zeno[i] += r.n_zeno
-                watch.ran(i, r.final_state)
+                watch.ran(i, None if r.diverged else r.final_state)
     redo = [i for i, z in enumerate(zeno) if z > 0]
     fallback: dict[int, dict] = {}
     if redo:
@@ -299,15 +299,17 @@ class ShakedownWatch:
                 self.ran(i, first_ends[i])
 
     def ran(self, i: int, final_state) -> None:
-        """Take ``W`` at the end of point ``i``'s latest run (its ``final_state``)."""
-        if i not in self.locked or self.trouble[i]:
+        """Take ``W`` at the end of point ``i``'s latest run (its ``final_state``; ``None`` for
+        a run that diverged, which is labelled as such)."""
+        if i not in self.locked or self.trouble[i] or final_state is None:
             return
         pp, orbit = self.locked[i]
         x = np.asarray(final_state, dtype=float)
         if not np.all(np.isfinite(x)):
-            return  # a diverged run is labelled as such
+            return
         w, before = self._energy(pp, x, orbit), self.last[i]
-        growth = (w - before) / max(before, self.scale[i])
+        denom = max(before, self.scale[i])
+        growth = 0.0 if w <= before else (w - before) / denom if denom > 0.0 else np.inf
         if growth > SHAKEDOWN_RTOL:
             self.trouble[i] = (
                 f"the energy W of the difference from the locked orbit grew from {before:.6g} to "
@@ -617,6 +619,8 @@ def long_record_exemption(sim_row: pd.Series, params: dict) -> str | None:
 
     x = poincare_array(sim_row["poincare_state"])
     if unsettled_reason(sim_row) is not None:
+        if shakedown_trouble(sim_row):
+            return "not measured: the record is not a motion of the model (unsettled, no verdict)"
         if float(sim_row.get("shakedown_ratio", np.nan)) < 1.0:
             return ("not measured: the record is a transient (labelled periodic-1 by the shakedown "
                     "limit, not reached)")
@@ -764,7 +768,9 @@ def classify_points(simulated: pd.DataFrame, lyapunov: pd.DataFrame,
     (:func:`unsettled_reason` finds the record still a transient after the adaptive
     transient's cap, by its own tests or by the continuation check; the reason says which),
     except below the shakedown limit (the record's ``shakedown_ratio`` below 1), where the
-    attractor is known, a locked period-1 orbit (:func:`shakedown_reason`); otherwise
+    attractor is known, a locked period-1 orbit (:func:`shakedown_reason`), unless the runs
+    were not motions of the model there (:func:`shakedown_trouble`: ``unsettled``, "no
+    verdict"); otherwise
     :func:`analysis.regimes.classify` on the stroboscopic samples of all generalised
     coordinates and velocities, with ``lambda_1 T`` and its confidence interval from the block
     statistics of the long Benettin record (``lle_mean``, ``lle_lo``, ``lle_hi``); the interval

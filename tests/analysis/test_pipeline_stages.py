@@ -4,6 +4,8 @@ RK4 reference."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -316,7 +318,13 @@ def test_the_shakedown_rule_holds_back_only_runs_whose_energy_falls(method, monk
 
     import beamsim.shakedown
     from analysis.pipeline.config import Numerics
-    from analysis.pipeline.stages import locked_ratios, records_table, simulate_runs, unsettled_reason
+    from analysis.pipeline.stages import (
+        locked_ratios,
+        long_record_exemption,
+        records_table,
+        simulate_runs,
+        unsettled_reason,
+    )
     from beamsim.point import prepare_point
     from beamsim.simulate import state_params
 
@@ -356,3 +364,17 @@ def test_the_shakedown_rule_holds_back_only_runs_whose_energy_falls(method, monk
     lyap = pd.DataFrame([{"point_id": "a", "lle_mean": np.nan, "lle_lo": np.nan, "lle_hi": np.nan}])
     row = classify_points(sim, lyap).iloc[0]
     assert row["label"] == "unsettled" and row["reason"].startswith("no verdict: the energy W"), row["reason"]
+    # the Lyapunov stage does not call it labelled by the theorem either
+    assert long_record_exemption(sim.iloc[0], p).startswith("not measured: the record is not a motion")
+    # the default continuation check's runs are watched too; an unloaded point at rest (W = 0,
+    # a zero locked orbit) stays at rest: no growth, no division by zero
+    monkeypatch.setattr(beamsim.shakedown, "difference_energy", spy)
+    seen.clear()
+    checked = replace(nm, continuation_check=True, n_record=128, n_transient_max=600)
+    rec = simulate_runs([{"point_id": "c", "params": p}], checked, 1)[0]
+    w = seen[1:]
+    assert rec["shakedown_trouble"] == "" and rec["stick_fraction"] == 1.0
+    assert len(w) > 2 + (rec["n_transient_used"] - 20) // (20 + 128)  # a check run after the transients
+    assert np.all(np.diff(w) <= 1e-9 * np.asarray(w[:-1])), w
+    rest = simulate_runs([{"point_id": "r", "params": base | {"f0_rel": 0.0}}], nm, 1)[0]
+    assert rest["shakedown_trouble"] == "" and locked_ratios(base | {"f0_rel": 0.0})[1] == 0.0
