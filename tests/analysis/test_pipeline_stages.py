@@ -313,7 +313,10 @@ def test_the_shakedown_rule_holds_back_only_runs_whose_energy_falls(method, monk
     the theorem), by orders of magnitude while the record slips, and no trouble is recorded.
     Where ``W`` grows (a fake ``W`` that grows after the first run: what an integrator that is
     not following the model would give) the record is not continued, carries the reason, and
-    is ``unsettled`` with no verdict, not periodic-1 by the theorem."""
+    is ``unsettled`` with no verdict, not periodic-1 by the theorem, and the Lyapunov stage's
+    verdict says the same.  Also: a start on the locked orbit (``W = 0``) and an unloaded point
+    at rest (a zero locked orbit) are no trouble, and the continuation check's runs are
+    watched too."""
     from kicked_start import kicked_locked_orbit
 
     import beamsim.shakedown
