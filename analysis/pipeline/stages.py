@@ -197,8 +197,8 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
     used = [nm.n_transient] * len(points)
     t_start = [0.0] * len(points)  # time of the kept run's start
     first_slip = [(r.slipped, r.t_first_slip) for r in results]
-    kinetic = [locked_ratios(p["params"])[1] for p in points]  # below 1: every motion shakes down
-    watch = ShakedownWatch(points, kinetic, [None if r.diverged else r.final_state for r in results])
+    watch = ShakedownWatch(points, [None if r.diverged else r.final_state for r in results])
+    kinetic = watch.kinetic  # below 1: every motion shakes down
     checked = [not nm.continuation_check] * len(points)  # the record passed a continuation check
     why_continued = [""] * len(points)
     done = [False] * len(points)  # next_run said None: the point's record is final
@@ -278,20 +278,21 @@ class ShakedownWatch:
     stays there up to rounding) sets ``trouble[i]``, the reason, and the point
     is not continued: its runs are not motions of the model (an integrator's trouble), so the
     theorem must not label them.  Points above the limit, of other laws, or with a NaN
-    ``kinetic`` are not watched (``trouble`` stays ``""``)."""
+    ``kinetic`` are not watched (``trouble`` stays ``""``).  ``kinetic`` holds every point's
+    shakedown ratio (:func:`locked_ratios`' second), from the same locked orbits."""
 
-    def __init__(self, points: Sequence[dict], kinetic: Sequence[float], first_ends: Sequence):
+    def __init__(self, points: Sequence[dict], first_ends: Sequence):
         from beamsim.shakedown import difference_energy
 
         self._energy = difference_energy
-        self.kinetic = list(kinetic)
+        orbits = [point_locked_orbit(p["params"]) for p in points]
+        self.kinetic = [_ratios(found)[1] for found in orbits]
         self.trouble = [""] * len(points)
         self.locked: dict[int, tuple] = {}
         self.last: dict[int, float] = {}
         self.scale: dict[int, float] = {}  # W at rest: the locked orbit's own energy
-        for i, p in enumerate(points):
-            found = point_locked_orbit(p["params"]) if self.kinetic[i] < 1.0 else None
-            if found is not None:
+        for i, found in enumerate(orbits):
+            if found is not None and self.kinetic[i] < 1.0:
                 pp, orbit = found
                 self.locked[i] = found
                 self.scale[i] = difference_energy(pp, np.zeros_like(orbit.state), orbit)
@@ -423,7 +424,11 @@ def locked_ratios(params: dict) -> tuple[float, float]:
     undamped (``stuck_decay_rate`` 0: the total slip is still finite, but the free vibration
     left is never damped, so the motion is not periodic).  Both NaN where
     :func:`point_locked_orbit` gives none or the stuck decay rate cannot be computed."""
-    found = point_locked_orbit(params)
+    return _ratios(point_locked_orbit(params))
+
+
+def _ratios(found) -> tuple[float, float]:
+    """:func:`locked_ratios` from a point's :func:`point_locked_orbit` (``None``: none)."""
     if found is None:
         return np.nan, np.nan
     pp, orbit = found
