@@ -10,7 +10,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 import scipy.linalg as sla
 
-from beamsim.friction import Friction
+from beamsim.friction import RIGID_STICK, Friction
 from beamsim.kernels.bundles import PointStack
 from beamsim.two_layer import (
     Geometry,
@@ -216,13 +216,24 @@ def period_steps(pp: PreparedPoint, method: str = "rk4", steps_per_period: int |
     return max(64, int(math.ceil(T * pp.omega_max / step_factor)))
 
 
-def _first_order(md: TwoLayerModel) -> tuple:
+def _first_order(md: TwoLayerModel, explicit_inverse: bool = False) -> tuple:
     """``(-M^-1 K, -M^-1 C_struct, -M^-1 S^T W, M^-1 g, M^-1, L^-1)`` of a model (L: Cholesky
-    factor of M)."""
-    Minv = np.linalg.inv(md.M)
+    factor of M).  The products with ``M^-1`` are Cholesky solves, not products with the
+    explicit inverse: the mass matrix is ill-conditioned (cond ~ 1e7 at three modes), and the
+    explicit inverse's rounding, ``eps cond(M)``, left RK4 a floor of ~3e-7 of the state per
+    period below which no step size reached (docs/performance.md, "The first-order matrices
+    without the explicit inverse").  ``explicit_inverse``: the products with ``M^-1`` itself,
+    for the rigid stick, whose constraint tractions project with ``S M^-1 S^T`` and must see
+    the same ``M^-1`` as its free acceleration (with the solves its drive left the reference
+    run by 2e-8 and a monotone law's Benettin exponent came out positive)."""
     Cst = md.C if md.C_struct is None else md.C_struct
-    return (-Minv @ md.K, -Minv @ Cst, -Minv @ (md.S.T * md.wq), Minv @ md.g, Minv,
-            np.linalg.inv(np.linalg.cholesky(md.M)))
+    Minv = np.linalg.inv(md.M)
+    Linv = np.linalg.inv(np.linalg.cholesky(md.M))
+    if explicit_inverse:
+        return -Minv @ md.K, -Minv @ Cst, -Minv @ (md.S.T * md.wq), Minv @ md.g, Minv, Linv
+    chol = sla.cho_factor(md.M, lower=True)
+    return (-sla.cho_solve(chol, md.K), -sla.cho_solve(chol, Cst),
+            -sla.cho_solve(chol, md.S.T * md.wq), sla.cho_solve(chol, md.g), Minv, Linv)
 
 
 def stack_points(prepared: list, div_limit: float = 1e3) -> PointStack:
@@ -247,9 +258,10 @@ def stack_points(prepared: list, div_limit: float = 1e3) -> PointStack:
     cache = {}
     for i, pp in enumerate(prepared):
         md = pp.model
-        if id(md) not in cache:
-            cache[id(md)] = _first_order(md)
-        a["Aq"][i], a["Av"][i], a["Bt"][i], a["gv"][i], a["Minv"][i], a["Linv"][i] = cache[id(md)]
+        key = (id(md), pp.friction.code == RIGID_STICK)
+        if key not in cache:
+            cache[key] = _first_order(md, explicit_inverse=key[1])
+        a["Aq"][i], a["Av"][i], a["Bt"][i], a["gv"][i], a["Minv"][i], a["Linv"][i] = cache[key]
         a["S"][i], a["wq"][i], a["kt"][i] = md.S, md.wq, md.geom.k_t
         a["Mm"][i], a["Km"][i], a["Cm"][i], a["g"][i], a["tip"][i] = md.M, md.K, md.C, md.g, md.tip
         a["f0"][i], a["om"][i] = pp.f0, pp.omega

@@ -52,6 +52,7 @@ import sys
 import time
 
 import numpy as np
+import scipy.linalg as sla
 from scipy.integrate import solve_ivp
 
 import beamsim  # noqa: F401  (first: pins BLAS threads before numpy loads)
@@ -107,11 +108,13 @@ class Equations:
     def __init__(self, pp):
         m = pp.model
         self.n, self.nq = m.n, m.n_quad
-        Minv = np.linalg.inv(m.M)
-        self.Aq = -Minv @ m.K
-        self.Av = -Minv @ m.C
-        self.Bt = -Minv @ (m.S.T * m.wq)
-        self.gv = Minv @ m.g
+        # Cholesky solves, as beamsim.point's first-order matrices (an explicit M^-1 leaves a
+        # rounding floor of eps cond(M) in the trajectory: docs/performance.md)
+        chol = sla.cho_factor(m.M, lower=True)
+        self.Aq = -sla.cho_solve(chol, m.K)
+        self.Av = -sla.cho_solve(chol, m.C)
+        self.Bt = -sla.cho_solve(chol, m.S.T * m.wq)
+        self.gv = sla.cho_solve(chol, m.g)
         self.S = m.S
         self.kt = m.geom.k_t
         if np.any(pp.tau_s != pp.tau_k):

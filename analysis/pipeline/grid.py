@@ -25,7 +25,7 @@ import numpy as np
 from analysis.pipeline.config import Numerics, as_numerics
 
 #: bump when a code change alters results for unchanged parameters (invalidates all ids)
-RESULTS_VERSION = "25"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
+RESULTS_VERSION = "26"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
 #                        conjugate pairs with damping, kernels with reassociated sums; 8: the
 #                        continuation check (the record kept is the continued one); 9: the
 #                        Lyapunov stage's free copy on expo (numerics.lyapunov.method: auto);
@@ -65,7 +65,9 @@ RESULTS_VERSION = "25"  # 6: adaptive transients, block statistics of lambda_1; 
 #                        that rule checked by its energy (stages.ShakedownWatch): a record
 #                        whose W grows there is unsettled, not periodic-1 by the theorem
 #                        (the simulate record's shakedown_trouble; the shipped maps' labels
-#                        are version 24's)
+#                        are version 24's); 26: RK4's first-order matrices by Cholesky
+#                        solves, not with the explicit M^-1 (its rounding, eps cond(M), was a
+#                        floor of ~3e-7 of the state per period; the rigid stick keeps it)
 
 
 def _canonical(value):

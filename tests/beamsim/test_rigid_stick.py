@@ -123,13 +123,23 @@ def test_rigid_stick_is_fourth_order_in_the_step():
     assert e[0] / e[1] > 10 and e[1] / e[2] > 10
 
 
-def test_without_pressure_rigid_and_penalty_are_the_same_free_layers():
-    """At zero interface pressure neither law transmits a traction: the same trajectory."""
+def test_without_pressure_rigid_and_penalty_are_the_same_free_layers(monkeypatch):
+    """At zero interface pressure neither law transmits a traction: the same trajectory, to
+    the bit's neighbourhood when both laws' first-order matrices are formed with the explicit
+    ``M^-1`` (the rigid stick's way, ``beamsim.point._first_order``).  The penalty law's own
+    matrices (Cholesky solves) differ from those by the explicit inverse's rounding, which
+    reaches about 6e-9 of the state in two periods here."""
+    import beamsim.point as point
+
     kw = dict(n_modes=2, p=0.0, f0=2e-7, omega=0.1, n_transient=0, n_record=2, method="rk4")
     a = simulate(law="rigid-stick", **kw)
     b = simulate(law="stick-slip", **kw)
     assert a.steps_per_period == b.steps_per_period
-    assert _rel(a.poincare_state, b.poincare_state) < 1e-12
+    assert 0 < _rel(a.poincare_state, b.poincare_state) < 1e-7
+    formed = point._first_order
+    monkeypatch.setattr(point, "_first_order", lambda md, explicit_inverse=False: formed(md, True))
+    c = simulate(law="stick-slip", **kw)
+    assert _rel(a.poincare_state, c.poincare_state) < 1e-12
 
 
 def test_redundant_interface_points_do_not_chatter():
