@@ -35,7 +35,7 @@ _CACHE_BYTES = 1e8
 
 #: the inputs of a point that ``beamsim.kernels.expo._pattern`` reads (the full damping matrix
 #: ``Cm``: expo books the interface dashpot in it)
-_MODEL_INPUTS = ("Mm", "Km", "Cm", "damp", "S", "wq", "kt", "g", "Minv", "Linv")
+_MODEL_INPUTS = ("Mm", "Km", "Cm", "damp", "S", "wq", "kt", "g", "Linv")
 
 
 def cache_slots(requested: int, n: int) -> int:

@@ -65,9 +65,11 @@ RESULTS_VERSION = "26"  # 6: adaptive transients, block statistics of lambda_1; 
 #                        that rule checked by its energy (stages.ShakedownWatch): a record
 #                        whose W grows there is unsettled, not periodic-1 by the theorem
 #                        (the simulate record's shakedown_trouble; the shipped maps' labels
-#                        are version 24's); 26: RK4's first-order matrices by Cholesky
-#                        solves, not with the explicit M^-1 (its rounding, eps cond(M), was a
-#                        floor of ~3e-7 of the state per period; the rigid stick keeps it)
+#                        are version 24's); 26: no explicit M^-1 in the first-order
+#                        matrices: RK4's by Cholesky solves, expo's damped decompositions in
+#                        mass-normalised coordinates (its rounding, eps cond(M), was a floor of
+#                        ~3e-7 (RK4) and ~1e-6 (expo) of the state per period; the rigid
+#                        stick keeps it)
 
 
 def _canonical(value):

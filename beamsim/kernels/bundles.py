@@ -29,7 +29,8 @@ LEAF = dict(cache=True, _nrt=False, fastmath={"reassoc", "contract", "nsz", "arc
 #: Cm`` mass, stiffness and the damping matrix the integrator books (``damp``: it is nonzero),
 #: ``g`` load vector, ``tip`` tip-response rows; load ``F(t) = f0 (cos(om t) - 1)``; friction
 #: limits ``tau_s, tau_k`` (stick-slip) and ``fc, fs, vs, kv, eps`` (regularised laws); ``Minv``
-#: and ``Linv`` = ``M^-1`` and the inverse Cholesky factor of ``M`` (expo).
+#: and ``Linv`` = ``M^-1`` (the rigid stick's constraint tractions) and the inverse Cholesky
+#: factor of ``M`` (expo's mass-normalised decompositions).
 _POINT_INPUTS = ("law", "Aq", "Av", "Bt", "gv", "S", "wq", "kt", "ct", "Mm", "Km", "Cm", "damp",
                  "g", "tip", "f0", "om", "tau_s", "tau_k", "fc", "fs", "vs", "kv", "eps", "Minv",
                  "Linv")

@@ -133,13 +133,15 @@ def _pattern(stuck, pt):
     """Eigen-decomposition ``A = V diag(lam) V^-1`` of the first-order matrix of the linear system
     with the stuck set ``stuck`` (springs k_t at the stuck points).  Undamped: from the real
     symmetric problem ``K_P phi = omega^2 M phi`` (lam = +-i omega, V and V^-1 in closed
-    form); damped: LAPACK's real eigen-decomposition, conjugate pairs ordered by
-    :func:`beamsim.kernels.real_eig.real_eig`.  Depends on the model's matrices only (not on the forcing:
-    the resonance guard is :func:`resonant`).  ``V^-1 [0; M^-1 .]`` (the modal loads ``gam``
-    and ``gS``) is formed here once per pattern, never applied to a state's load vector: the
-    mass matrix is ill-conditioned, so ``M^-1 r`` of the stuck springs' large, balanced anchor
-    loads ``r`` would leave a rounding error of ``eps cond(M)`` in the slow modes' net load at
-    every switch (docs/lyapunov.md, section 17).  Returns the :data:`Modes` entries."""
+    form); damped: LAPACK's real eigen-decomposition of the first-order matrix in
+    mass-normalised coordinates ``y = L^T q`` (``M = L L^T``), conjugate pairs ordered by
+    :func:`beamsim.kernels.real_eig.real_eig`, mapped back to ``(q, v)``.  Depends on the
+    model's matrices only (not on the forcing: the resonance guard is :func:`resonant`).
+    ``V^-1 [0; M^-1 .]`` (the modal loads ``gam`` and ``gS``) is formed here once per pattern,
+    never applied to a state's load vector: the mass matrix is ill-conditioned, so ``M^-1 r``
+    of the stuck springs' large, balanced anchor loads ``r`` would leave a rounding error of
+    ``eps cond(M)`` in the slow modes' net load at every switch (docs/lyapunov.md, section
+    17).  Returns the :data:`Modes` entries."""
     Mm, Km, S, wq, kt, g = pt.Mm, pt.Km, pt.S, pt.wq, pt.kt, pt.g
     n = Km.shape[0]
     nq = S.shape[0]
@@ -178,17 +180,34 @@ def _pattern(stuck, pt):
                 ViM[k, a] = -0.5j / wk * Phi[a, k]
                 ViM[n + k, a] = 0.5j / wk * Phi[a, k]
     else:
+        # decomposed in mass-normalised coordinates y = L^T q (M = L L^T), where the stiffness
+        # and damping are L^-1 K_P L^-T and L^-1 C L^-T: formed with M^-1 the first-order matrix
+        # carries a rounding error of eps cond(M) (cond(M) ~ 1e7 at three modes; what it cost:
+        # docs/performance.md, "The first-order matrices without the explicit inverse")
+        c = np.ascontiguousarray
+        Li = c(pt.Linv)
+        LiT = c(Li.T)
+        Kt = (Li @ KP) @ LiT
+        Ct = (Li @ c(pt.Cm)) @ LiT
         A = np.zeros((n2, n2))
-        MK = pt.Minv @ KP
-        MC = pt.Minv @ pt.Cm
         for a in range(n):
             A[a, n + a] = 1.0
             for b in range(n):
-                A[n + a, b] = -MK[a, b]
-                A[n + a, n + b] = -MC[a, b]
-        lam, V, nh, nc = real_eig(A)
-        Vi = np.linalg.inv(V)
-        ViM = np.ascontiguousarray(Vi[:, n:]) @ pt.Minv.astype(np.complex128)
+                A[n + a, b] = -0.5 * (Kt[a, b] + Kt[b, a])      # symmetric, as they are
+                A[n + a, n + b] = -0.5 * (Ct[a, b] + Ct[b, a])
+        lam, W, nh, nc = real_eig(A)
+        Wi = np.linalg.inv(W)
+        # back to (q, v): V = diag(L^-T, L^-T) W, V^-1 = W^-1 diag(L^T, L^T), and the velocity
+        # block of V^-1 times M^-1 is W^-1[:, n:] L^-1
+        LT = c(np.linalg.cholesky(c(Mm)).T).astype(np.complex128)
+        LiTc = LiT.astype(np.complex128)
+        V = np.empty((n2, n2), np.complex128)
+        Vi = np.empty((n2, n2), np.complex128)
+        V[:n, :] = LiTc @ c(W[:n, :])
+        V[n:, :] = LiTc @ c(W[n:, :])
+        Vi[:, :n] = c(Wi[:, :n]) @ LT
+        Vi[:, n:] = c(Wi[:, n:]) @ LT
+        ViM = c(Wi[:, n:]) @ Li.astype(np.complex128)
     if not pt.damp:
         nh = nc = n
     wt = np.zeros(n2)

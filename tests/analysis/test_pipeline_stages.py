@@ -131,19 +131,17 @@ def test_the_ladder_setting_reaches_the_stefanski_column_only(tmp_path):
     """``numerics.lyapunov.ladder`` (``expo``, the default, or ``rk4``) picks the integrator of
     the Stefanski ladder only: at a chaotic two-mode point the Stefanski value changes and stays
     chaotic, the label's columns (the free copy's Benettin value and block statistics) are the
-    same to the bit."""
+    same to the bit.  ``confirm: none``, so that no second opinion replaces the ``expo`` pair's
+    reading (until results version 25 the test relied on the point's 256 Poincare samples
+    saying chaos on their own, which for this intermittent set depends on the last bits)."""
     from beam_copies import CHAOTIC_2MODES as point
 
-    from analysis.regimes import poincare_says_chaotic
-
-    # a record long enough that its Poincare samples say chaos on their own (broadband, 0-1
-    # test), so that the default second opinion leaves the expo pair's reading
     base = {"n_transient": 200, "n_record": 256, "n_transient_max": 200, "continuation_check": False,
-            "lyapunov": {"n_periods": 20, "block_periods": 5, "burn_in": 1, "min_blocks": 2, "max_blocks": 2}}
+            "lyapunov": {"n_periods": 20, "block_periods": 5, "burn_in": 1, "min_blocks": 2, "max_blocks": 2,
+                         "confirm": "none"}}
     rk4 = base | {"lyapunov": base["lyapunov"] | {"ladder": "rk4"}}
     pts = _payload([point], base)
     sim = simulate_points(pts, base, str(tmp_path), threads=2)
-    assert poincare_says_chaotic(poincare_array(sim["poincare_state"][0]))   # the premise
     b = lyapunov_points(pts, sim, base, str(tmp_path / "expo"), threads=2)
     a = lyapunov_points(_payload([point], rk4), sim.assign(point_id=_payload([point], rk4)[0]["point_id"]),
                         rk4, str(tmp_path / "rk4"), threads=2)
