@@ -55,11 +55,16 @@ def _kernel_cache_dir() -> str | None:
         digest.update(path.relative_to(root).as_posix().encode() + b"\0")
         digest.update(path.read_bytes())
     tag = "beamsim-" + digest.hexdigest()[:16]
-    base = Path(_os.environ.get("NUMBA_CACHE_DIR") or root / "__pycache__" / "numba")
+    base = Path(_os.environ.get("NUMBA_CACHE_DIR") or root / "__pycache__" / "numba").absolute()
     folder = base if base.name == tag else base / tag     # a child process inherits the folder
     try:
         folder.mkdir(parents=True, exist_ok=True)
-    except OSError:
+    except OSError as err:
+        import warnings
+
+        warnings.warn(f"beamsim: numba's cache folder {folder} cannot be created ({err}); numba's "
+                      "own cache setting is used, whose kernels may keep callees of older "
+                      "sources: set NUMBA_CACHE_DIR to a writable folder", RuntimeWarning, stacklevel=2)
         return None
     return str(folder)
 

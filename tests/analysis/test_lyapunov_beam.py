@@ -149,19 +149,17 @@ def test_chaotic_point_is_chaotic_for_both_estimators():
     period from 400-period Benettin runs at three step sizes, docs/lyapunov.md s.7) Benettin's
     exponent (RK4 pair) is far above the resolution and stays so when the measuring time
     doubles, and on the pipeline's path (``expo`` free copy and ``expo`` ladder) Stefanski's
-    verdict is chaotic in each of six 40-period windows (16 periods apart), with its threshold
-    d_s, summed over the six, within 20 % of Benettin's values summed over the same windows.
-    For a non-smooth flow d_s bounds lambda_1 from above (Baumann & Leine 2016); until results
-    version 25 this test read one window and asked for d_s >= 0.9 of Benettin's value there
-    (over 20 periods 2.00 against 2.10 in version 14, 1.68 against 1.94 in version 15; over 40
-    1.47 against 1.50, over 60 1.67 against 1.67).  One window does not decide it: over these
-    six windows the ratio was 0.92, 0.91, 0.92, 1.10, 0.95, 0.72 at version 25's code (summed:
-    0.905), and the two variants of version 26 measured gave 0.70-1.07 (summed 0.94) and
-    0.81-1.02 (summed 0.86, the shipped code).  So here d_s reads 5-15 % below Benettin's
-    exponent rather than above it: they agree, the bound is not seen at this resolution.  The
-    RK4 ladder at the pipeline's step did not synchronise below its cap there (d_s T = 492
-    against Benettin's 2.42), at half that step it read 1.93 against 1.78 (docs/lyapunov.md,
-    section 13)."""
+    verdict is chaotic in each of six consecutive, non-overlapping 40-period windows, with its
+    threshold d_s summed over the six at or above 0.9 of Benettin's values summed over the same
+    windows (for a non-smooth flow d_s bounds lambda_1 from above, Baumann & Leine 2016; 0.9:
+    the windows' noise).  Until results version 25 the test read the first window alone (over
+    20 periods: 2.00 against 2.10 in version 14, 1.68 against 1.94 in version 15; over 40 1.47
+    against 1.50, over 60 1.67 against 1.67), and one window does not decide it: in version 26
+    the first window read 1.86 against 1.82, and windows 16 periods apart (overlapping) read
+    ratios 0.81-1.02 (version 25's code: 0.72-1.10).  The six windows of this test in version
+    26: 1.02, 0.93, 0.98, 0.97, 0.90, 0.98 (the sums' ratio 0.96).  The RK4 ladder at the
+    pipeline's step did not synchronise below its cap there (d_s T = 492 against Benettin's
+    2.42), at half that step it read 1.93 against 1.78 (docs/lyapunov.md, section 13)."""
     pp = prepare_point(**CHAOTIC)
     r = simulate_batch([CHAOTIC], n_transient=60, n_record=16, method="rk4", n_threads=2)[0]
     scale = attractor_scale(r.poincare_state, response_scale(pp), pp.omega)[None]
@@ -180,11 +178,12 @@ def test_chaotic_point_is_chaotic_for_both_estimators():
             est.stefanski.verdict
         assert est.benettin.value * T > 5.0 / 40
         windows.append((est.stefanski.value * T, est.benettin.value * T))
-        r = simulate_batch([CHAOTIC | restart_params(r)], n_transient=0, n_record=16,
+        # the next window starts where this one ends: 24 + 16 = 40 periods on
+        r = simulate_batch([CHAOTIC | restart_params(r)], n_transient=24, n_record=16,
                            method="rk4", n_threads=2)[0]
     st, be = np.sum(windows, axis=0)
     print(f"\nStefanski / Benettin per 40-period window: {np.round(windows, 3).tolist()}")
-    assert 0.8 <= st / be <= 1.25, windows
+    assert st >= 0.9 * be, windows
 
 
 @pytest.mark.slow

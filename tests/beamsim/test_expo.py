@@ -227,7 +227,8 @@ def _stuck_beam_error(method, **kw):
 
 def test_rk4_follows_a_stuck_beams_exact_solution_at_every_step():
     """RK4 lands within 1e-9 of the state's size from the exact solution of
-    :func:`_stuck_beam_error` (measured 1.1e-10 at step factors 0.25, 0.125 and 0.0625).  Its
+    :func:`_stuck_beam_error` (measured 1.2e-10, 1.4e-10, 1.5e-10 at step factors 0.25, 0.125
+    and 0.0625).  Its
     first-order matrices are Cholesky solves (``beamsim.point._first_order``); with the explicit
     ``M^-1`` (before results version 26) it was 3.0e-7 away at every step factor: a floor no
     step reached (docs/performance.md, "The first-order matrices without the explicit
@@ -241,9 +242,10 @@ def test_expo_follows_a_stuck_beams_exact_solution():
     """``expo`` is exact between switches, and its damped decomposition
     (:func:`beamsim.kernels.expo._pattern`) is formed in mass-normalised coordinates: it lands
     within 1e-9 of the state's size from the exact solution of :func:`_stuck_beam_error` after
-    one period (measured 1.4e-10).  Decomposing ``[[0, I], [-M^-1 K_P, -M^-1 C]]`` with the
-    explicit inverse instead (before results version 26) landed 1.2e-6 from it
-    (docs/performance.md, "The first-order matrices without the explicit inverse")."""
+    one period (measured 1.7e-10; 1.3e-9 without symmetrising the two blocks).  Decomposing
+    ``[[0, I], [-M^-1 K_P, -M^-1 C]]`` with the explicit inverse instead (before results
+    version 26) landed 1.2e-6 from it (docs/performance.md, "The first-order matrices without
+    the explicit inverse")."""
     error = _stuck_beam_error("expo")
     print(f"\nexpo from the exact solution: {error:.1e}")
     assert error < 1e-9

@@ -48,3 +48,5 @@ def test_the_cache_folder_changes_with_any_source_file_and_only_with_them(tmp_pa
     assert user == str(tmp_path / "user" / Path(edited).name)
     assert _folder(src, str(tmp_path / "user"), numba_first=True) == user
     assert _folder(src, user) == user
+    # a relative base is made absolute (a child process may run in another folder)
+    assert _folder(src, "rel") == str(src / "rel" / Path(edited).name)
