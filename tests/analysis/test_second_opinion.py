@@ -16,6 +16,7 @@ import math
 import numpy as np
 import pytest
 from beam_copies import CHAOTIC_2MODES, GRAZING, GRAZING_TRANSIENT, SLIPPING, STUCK
+from test_regimes import logistic
 
 from analysis.lyapunov.beam import (
     RK4_SECOND_OPINION,
@@ -57,23 +58,14 @@ def test_the_second_opinion_is_the_rk4_pairs_record():
     assert np.array_equal(alone[0].blocks, mine[1].blocks)
 
 
-def _logistic_record(n_samples: int, width: int) -> np.ndarray:
-    """Poincare-like samples of the fully chaotic logistic map ``x -> 3.99 x (1 - x)`` in
-    ``width`` columns: a record that says chaos on its own whatever the beam's last bits."""
-    x = np.empty(n_samples)
-    x[0] = 0.3141
-    for i in range(n_samples - 1):
-        x[i + 1] = 3.99 * x[i] * (1.0 - x[i])
-    return np.outer(x - 0.5, np.linspace(1.0, 2.0, width))
-
-
 def test_only_records_not_at_or_below_the_margin_are_measured_again():
     """``_second_opinion`` with ``confirm: all``: the ``expo`` pair's positive record (the
     two-mode chaotic point) is replaced by the RK4 pair's (``rk4_long_record``'s, to the bit),
     its ``expo`` statistics kept as ``screen`` and its ``free_copy`` named; a non-positive one
     (the one-mode slipping orbit) is left as it was.  With the default ``contradicted`` the
     chaotic point's record is left too when its Poincare samples say chaos on their own: they
-    are the logistic map's here (:func:`_logistic_record`), because the chaotic point's own
+    are the fully chaotic logistic map's here (``x -> 3.99 x (1 - x)`` in every column, whatever
+    the beam's last bits), because the chaotic point's own
     256 samples say chaos or not depending on the transient and the last bits (results version
     26: not after 200 periods, yes after 300 and 400, not over 1024 samples: an intermittent
     set).  The records run on blocks of 25 periods (up to 8): on :data:`SHORT`'s 5-period
@@ -83,7 +75,8 @@ def test_only_records_not_at_or_below_the_margin_are_measured_again():
     for point, replaced in ((CHAOTIC_2MODES, True), (SLIPPING, False)):
         prepared, starts, scales = _settled([point], n_transient=60)
         n = prepared[0].model.n
-        records = [_logistic_record(257, 2 * n) if replaced else
+        records = [np.outer(logistic(3.99, 257, transient=100)[:, 0] - 0.5, np.linspace(1.0, 2.0, 2 * n))
+                   if replaced else
                    simulate_batch([point], n_transient=200, n_record=256, method="expo")[0].poincare_state]
         assert poincare_says_chaotic(records[0]) == replaced        # the premise
         for confirm in ("contradicted", "all"):
