@@ -23,12 +23,12 @@ HOLD_TARGET = 0.95
 def plot_convergence(runs: pd.DataFrame, summary: pd.DataFrame, grid_name: str, axes: list[str],
                      path: str, dpi: int = 130) -> None:
     """Left: per refinement, the fraction of sampled points whose label holds (bars, with
-    ``held/n`` and its exact 95 % interval; the load controls in a lighter grey), the
+    ``held/n`` and its exact 95 % interval; the controls in a lighter grey), the
     stratum-weighted estimate for the whole map (diamonds) and, with controls, the fraction
-    among the load-robust points (circles) and, with the neighbour support, among the points
-    whose label a grid neighbour shares (squares), against :data:`HOLD_TARGET`.  Right: one row per
-    sampled point, the map's label and the label under each refinement (a changed label is
-    crossed)."""
+    among the robust points (circles: those whose label holds under every control) and, with
+    the neighbour support, among the points whose label a grid neighbour shares (squares),
+    against :data:`HOLD_TARGET`.  Right: one row per sampled point, the map's label and the
+    label under each refinement (a changed label is crossed)."""
     refs = list(summary["refinement"])
     whats = list(summary["what"])
     points = runs.drop_duplicates("point_id")

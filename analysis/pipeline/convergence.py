@@ -26,15 +26,23 @@ run share everything else; a grid runs the refinements that are knobs of its fri
   interface's regularisation as ``k_t`` is the stick-slip law's;
 * ``modes``: one more arch mode in the Galerkin basis.
 
-Two **controls** change the physics instead (:data:`CONTROLS`): ``load_up`` and ``load_down``
-multiply the load amplitude by ``1 + LOAD_SHIFT`` and divide it by it (``f0_rel``, or ``f0``
-where a point gives that).  A label that moves under a 2 % change of the load is finer than
-that in the parameter plane (a narrow window, a locking tongue, the edge of a basin): a
-refinement that perturbs the model as much cannot be expected to keep it.  With controls in
-the runs, :func:`convergence_summary` also counts each refinement's labels that hold among the
-**load-robust** points (those whose label holds under every control), which separates a
-refinement that moves robust labels (the numerics or the model are not converged) from one
-that moves only labels a small change of the load moves too.
+Three **controls** change the load instead of the numerics (:data:`CONTROLS`): ``load_up``
+and ``load_down`` multiply the load amplitude by ``1 + LOAD_SHIFT`` and divide it by it
+(``f0_rel``, or ``f0`` where a point gives that).  A label that moves under a 2 % change of the
+load is finer than that in the parameter plane (a narrow window, a locking tongue, the edge of
+a basin): a refinement that perturbs the model as much cannot be expected to keep it.
+``nudge`` multiplies the load by ``1 + NUDGE`` (``1 + 1e-9``): no physical change, only a
+trajectory that leaves the map's at the level of the integrator's own error (``expo``'s is
+1.7e-10 to 3.0e-9 of the state in a period, docs/performance.md) and moves away where the
+dynamics amplify that.  A label that moves under it is decided by the run's last digits, as
+another compiler, BLAS or CPU could decide it (a periodic attractor absorbs the nudge; a
+chaotic transient, a fractal basin edge or a Lyapunov record at its margin does not), so the
+fraction of labels that hold under ``nudge`` is about the most a refinement can be expected to
+show.  With controls in the runs, :func:`convergence_summary` also counts each refinement's
+labels that hold among the **robust** points (those whose label holds under every control),
+which separates a refinement that moves robust labels (the numerics or the model are not
+converged) from one that moves only labels that a small change of the load, or none, moves
+too.
 
 The sample (:func:`sample_points`) is stratified by the map's labels: every label present is
 represented (rare ones, such as ``chaotic``, by at least :data:`MIN_PER_LABEL` points when the
@@ -58,7 +66,7 @@ import pandas as pd
 from analysis.pipeline.config import Numerics, as_numerics, check_keys
 from analysis.pipeline.grid import canonical_json, point_id
 
-__all__ = ["CONTROLS", "ConvergenceSettings", "LOAD_SHIFT", "REFINEMENTS", "REGULARISED_LAWS",
+__all__ = ["CONTROLS", "ConvergenceSettings", "LOAD_SHIFT", "NUDGE", "REFINEMENTS", "REGULARISED_LAWS",
            "SEPARATION_FACTOR", "applies", "convergence_runs", "convergence_summary", "flagged",
            "grid_refinements", "held_interval", "label_text", "onto_locked", "refine",
            "reuses_reference_runs", "run_metadata", "same_label", "sample_points", "summary_line",
@@ -68,6 +76,10 @@ __all__ = ["CONTROLS", "ConvergenceSettings", "LOAD_SHIFT", "REFINEMENTS", "REGU
 #: (the size of the change of ``f_cr``, and so of the load at a given ``f0_rel``, that one more
 #: mode makes on the default beam: 2.1 %, docs/pipeline.md)
 LOAD_SHIFT = 0.02
+
+#: the relative change of the load amplitude of the control ``nudge``: far below any physical
+#: tolerance, about the state error of the reference integrator in one period
+NUDGE = 1e-9
 
 #: refinement name -> what it changes (the figure's and the docs' wording)
 REFINEMENTS = {
@@ -79,6 +91,7 @@ REFINEMENTS = {
     "modes": "modes + 1",
     "load_up": f"load x {1 + LOAD_SHIFT:g}",
     "load_down": f"load / {1 + LOAD_SHIFT:g}",
+    "nudge": f"load x (1 + {NUDGE:g})",
 }
 
 #: the friction laws with a velocity band (``tau ~ tanh(v / eps_v)``, docs/model.md section 6): their
@@ -88,7 +101,7 @@ REFINEMENTS = {
 REGULARISED_LAWS = ("full-slip", "stribeck")
 
 #: the entries of :data:`REFINEMENTS` that change the physics (the load), not the numerics
-CONTROLS = ("load_up", "load_down")
+CONTROLS = ("load_up", "load_down", "nudge")
 
 #: the least number of sampled points of every label the map has (when it has that many)
 MIN_PER_LABEL = 2
@@ -226,7 +239,8 @@ def refine(refinement: str, params: dict, numerics: Numerics | dict) -> tuple[di
                              f"a point has n_modes = {n}")
         p["n_modes"] = n + 1
     elif refinement in CONTROLS:
-        factor = 1.0 + LOAD_SHIFT if refinement == "load_up" else 1.0 / (1.0 + LOAD_SHIFT)
+        factor = {"load_up": 1.0 + LOAD_SHIFT, "load_down": 1.0 / (1.0 + LOAD_SHIFT),
+                  "nudge": 1.0 + NUDGE}[refinement]
         if p.get("f0") is not None:
             p["f0"] = factor * float(p["f0"])
         else:
@@ -415,7 +429,8 @@ def flagged(runs: pd.DataFrame, robust: pd.Series | None) -> np.ndarray:
     """Per run row: whether the map flags its label as one a refinement need not keep: no
     verdict in the map (``undetermined``, ``unsettled``, ``diverged``), no grid neighbour
     sharing it (column ``supported`` False), or, with ``robust`` (per point: the label holds
-    under every load control), moving with a 2 % change of the load."""
+    under every control), moving under a control: a 2 % change of the load, or its nudge by
+    ``NUDGE``."""
     out = ~runs["label"].isin(DECIDED).to_numpy(bool)
     if "supported" in runs:
         out |= runs["supported"].eq(False).fillna(False).to_numpy(bool)
@@ -454,7 +469,7 @@ def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
     ``contradicted`` (both labels a verdict, :data:`DECIDED`, and different: e.g. chaotic ->
     periodic, unlike chaotic -> undetermined), ``flips`` (``"from -> to: count"``, most
     frequent first) and, when ``runs`` has :data:`CONTROLS`, for every refinement that is not
-    one: ``n_robust`` (sampled points whose label holds under every control: load-robust) and
+    one: ``n_robust`` (sampled points whose label holds under every control: robust) and
     ``held_robust`` (of those, the labels that hold under this refinement); NA otherwise; and
     for every refinement, when ``runs`` has the column ``supported``, ``n_supported`` (sampled
     points whose label a grid neighbour shares) and ``held_supported`` (of those, the labels
@@ -517,7 +532,7 @@ def summary_line(summary: pd.DataFrame, unchecked: str = "convergence.sample = 0
     """One line for a map's title: ``labels hold (sampled points; 95 % interval): step / 2
     19/20 [0.75-1.00], ...`` (no space inside an interval: a wrapped title keeps it whole),
     followed, when the summary has controls, by ``; of the 9/20 whose label holds under the
-    load controls: step / 2 9/9, ...``, when it has the neighbour support, by ``; of the
+    controls: step / 2 9/9, ...``, when it has the neighbour support, by ``; of the
     12/20 whose label a grid neighbour shares: step / 2 12/12, ...``, and by the refinements'
     ``unflagged`` counts: ``; moved without a flag (...): step / 2 0, ...``, and, where a
     refinement's runs ended locked below the map's lock-up limit (``locked_moves``), by
@@ -531,7 +546,7 @@ def summary_line(summary: pd.DataFrame, unchecked: str = "convergence.sample = 0
     rob = summary[summary["n_robust"].notna()] if "n_robust" in summary else summary.iloc[:0]
     if len(rob):
         n_rob = int(rob["n_robust"].iloc[0])
-        line += (f"; of the {n_rob}/{int(rob['n'].iloc[0])} whose label holds under the load "
+        line += (f"; of the {n_rob}/{int(rob['n'].iloc[0])} whose label holds under the "
                  "controls: " + ", ".join(f"{r['what']} {int(r['held_robust'])}/{n_rob}"
                                           for _, r in rob.iterrows()))
     sup = summary[summary["n_supported"].notna()] if "n_supported" in summary else summary.iloc[:0]
@@ -542,8 +557,8 @@ def summary_line(summary: pd.DataFrame, unchecked: str = "convergence.sample = 0
                              for _, r in sup.iterrows()))
     unf = summary[summary["unflagged"].notna()] if "unflagged" in summary else summary.iloc[:0]
     if len(unf):
-        line += ("; moved without a flag (no verdict, no neighbour shares it, moves with the "
-                 "load): "
+        line += ("; moved without a flag (no verdict, no neighbour shares it, moves under a "
+                 "control): "
                  + ", ".join(f"{r['what']} {int(r['unflagged'])}" for _, r in unf.iterrows()))
     onto = summary[summary["locked_moves"].fillna(0) > 0] if "locked_moves" in summary else summary.iloc[:0]
     if len(onto):

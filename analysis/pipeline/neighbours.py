@@ -6,7 +6,7 @@ window, a locking tongue, the edge of a chaotic band, a cell whose exponent sits
 margin.  Such a label is a property of that parameter point, but a small change of the
 numerics or of the model (a stiffer stick, one more mode, 2 % more load) is as large a
 perturbation as a step to the next cell, so it cannot be expected to hold there.  The
-convergence evidence measures that on a sample (the load controls,
+convergence evidence measures that on a sample (the controls,
 :mod:`analysis.pipeline.convergence`); the neighbour support says it for every cell of the map
 at no cost: it is read from the labels alone.
 

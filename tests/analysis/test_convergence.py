@@ -16,6 +16,7 @@ import yaml
 from analysis.pipeline.config import Numerics
 from analysis.pipeline.convergence import (
     MAX_MODES,
+    NUDGE,
     REFINEMENTS,
     REGULARISED_LAWS,
     ConvergenceSettings,
@@ -93,6 +94,9 @@ def test_each_refinement_changes_its_knob_only():
     assert refine("load_up", absolute, nm)[0] == absolute | {"f0": pytest.approx(4e-7 * 1.02)}
     unloaded = {k: v for k, v in POINT.items() if k != "f0_rel"}  # prepare_point's default 2
     assert refine("load_down", unloaded, nm)[0] == unloaded | {"f0_rel": pytest.approx(2 / 1.02)}
+    p, r = refine("nudge", POINT, nm)  # the load's ninth digit
+    assert p == POINT | {"f0_rel": 0.3 * (1 + NUDGE)} and p["f0_rel"] != POINT["f0_rel"] and r == nm
+    assert refine("nudge", absolute, nm)[0] == absolute | {"f0": 4e-7 * (1 + NUDGE)}
     assert POINT["n_modes"] == 2 and POINT["k_t"] == 10.0  # the input is not modified
     with pytest.raises(ValueError, match="n_modes"):
         refine("modes", POINT | {"n_modes": 12}, nm)
@@ -240,7 +244,7 @@ def test_summary_counts_fractions_and_flips():
     assert s["flips"].iloc[1] == "chaotic -> quasi-periodic: 1; periodic-2 -> chaotic: 1"
     assert summary_line(s) == ("labels hold (sampled points; 95 % interval): step / 2 3/3 [0.29-1.00], "
                                "k_t x 3 1/3 [0.01-0.91]; moved without a flag (no verdict, no "
-                               "neighbour shares it, moves with the load): step / 2 0, k_t x 3 2")
+                               "neighbour shares it, moves under a control): step / 2 0, k_t x 3 2")
     runs.loc[3, "refined_label"] = "undetermined"  # no verdict: a change, not a contradiction
     runs.loc[3, "holds"] = False
     runs.loc[4, "refined_period"] = 3  # period 1 -> 3: the label does not hold
@@ -254,25 +258,26 @@ def test_summary_counts_fractions_and_flips():
     assert "not checked" in summary_line(None)
 
 
-def test_summary_counts_the_labels_that_hold_among_the_load_robust_points():
-    """Four points: a and b keep their labels under both load controls (load-robust), c moves
-    under one and d under the other.  k_t moves a, c and d: of the 2 robust points 1 holds; the
-    controls' own rows and a summary without controls have no robust counts."""
-    refs = ["k_t", "load_up", "load_down"]
-    moved = {"k_t": "acd", "load_up": "c", "load_down": "d"}
+def test_summary_counts_the_labels_that_hold_among_the_robust_points():
+    """Five points: a and b keep their labels under every control (robust), c moves under one
+    load control, d under the other and e under the nudge.  k_t moves a, c, d and e: of the 2
+    robust points 1 holds; the controls' own rows and a summary without controls have no
+    robust counts."""
+    refs = ["k_t", "load_up", "load_down", "nudge"]
+    moved = {"k_t": "acde", "load_up": "c", "load_down": "d", "nudge": "e"}
     runs = pd.DataFrame([{"point_id": p, "refinement": ref, "weight": 1.0, "label": "periodic",
                           "period": 1, "refined_label": "chaotic" if p in moved[ref] else "periodic",
                           "refined_period": None if p in moved[ref] else 1, "holds": p not in moved[ref]}
-                         for ref in refs for p in "abcd"])
+                         for ref in refs for p in "abcde"])
     s = convergence_summary(runs)
-    assert list(s["held"]) == [1, 3, 3]
-    assert s["n_robust"].tolist() == [2, pd.NA, pd.NA] and s["held_robust"].tolist() == [1, pd.NA, pd.NA]
-    assert "; of the 2/4 whose label holds under the load controls: k_t x 3 1/2;" in summary_line(s)
-    # c and d move with the load (flagged); a moved without a flag
-    assert s["unflagged"].tolist() == [1, pd.NA, pd.NA]
-    assert summary_line(s).endswith("moves with the load): k_t x 3 1")
+    assert list(s["held"]) == [1, 4, 4, 4]
+    assert s["n_robust"].tolist() == [2] + [pd.NA] * 3 and s["held_robust"].tolist() == [1] + [pd.NA] * 3
+    assert "; of the 2/5 whose label holds under the controls: k_t x 3 1/2;" in summary_line(s)
+    # c, d and e move under a control (flagged); a moved without a flag
+    assert s["unflagged"].tolist() == [1] + [pd.NA] * 3
+    assert summary_line(s).endswith("moves under a control): k_t x 3 1")
     alone = convergence_summary(runs[runs["refinement"] == "k_t"])
-    assert alone["n_robust"].isna().all() and "load controls" not in summary_line(alone)
+    assert alone["n_robust"].isna().all() and "controls" not in summary_line(alone)
 
 
 def test_settings_defaults_are_the_shipped_config_and_bad_values_are_refused():
@@ -370,7 +375,7 @@ def test_summary_counts_the_labels_that_hold_among_the_supported_points():
 
 def test_a_label_without_a_verdict_is_flagged_and_a_moved_verdict_is_not():
     """``flagged``: the map's undetermined / unsettled labels are flagged (the map said it could
-    not tell), a verdict is flagged only by its neighbours or the load controls."""
+    not tell), a verdict is flagged only by its neighbours or the controls."""
     from analysis.pipeline.convergence import flagged
 
     runs = pd.DataFrame({"point_id": list("abcd"),
@@ -450,3 +455,29 @@ def test_the_separation_row_reads_the_maps_reference_runs_and_moves_only_the_cop
     assert base_T != refined_T
     assert abs(base_T - refined_T) < nm.lyapunov.margin, (base_T, refined_T)
     assert bool(runs["holds"].iloc[0]), (table["label"].iloc[0], runs["refined_reason"].iloc[0])
+
+
+def test_the_nudge_moves_a_chaotic_run_and_not_a_periodic_one():
+    """The control ``nudge`` changes the load in its ninth digit: physically nothing.  Its
+    premise, checked on two points with known answers: at a slipping period-1 orbit (one mode,
+    tests/analysis/test_lyapunov_beam.py's ``SLIPPING``) the nudged run's Poincare samples stay
+    within 1e-7 of the attractor's size of the map's (the linear response to the nudge is about
+    1e-9 of it), while at a chaotic point (``CHAOTIC``: lambda_1 T = 1.67, docs/lyapunov.md
+    section 7) the 1e-9 grows by e^1.67 a period and the two runs are apart by over 1 % of
+    the attractor within 40 periods (the largest of the last 10 samples): the nudge reaches
+    the trajectory, and only the dynamics amplify it."""
+    from test_lyapunov_beam import CHAOTIC, SLIPPING
+
+    from beamsim.simulate import simulate_batch
+
+    nm = Numerics()
+    for point, chaotic in ((SLIPPING, False), (CHAOTIC, True)):
+        nudged = refine("nudge", point, nm)[0]
+        a, b = simulate_batch([point, nudged], n_transient=10, n_record=30, method="expo", n_threads=2)
+        size = np.abs(a.poincare_state).max()
+        apart = np.abs(a.poincare_state - b.poincare_state).max(axis=1) / size
+        assert apart[0] > 0  # the nudge is not lost in the parameters
+        if chaotic:
+            assert apart[-10:].max() > 1e-2, apart  # measured: 0.39 at the last sample
+        else:
+            assert apart.max() < 1e-7, apart  # measured: 1.2e-9 to 1.8e-9
