@@ -91,7 +91,7 @@ REFINEMENTS = {
     "modes": "modes + 1",
     "load_up": f"load x {1 + LOAD_SHIFT:g}",
     "load_down": f"load / {1 + LOAD_SHIFT:g}",
-    "nudge": f"load x (1 + {NUDGE:g})",
+    "nudge": f"load x (1 + {NUDGE:g})".replace("e-0", "e-"),  # 1e-9, not 1e-09
 }
 
 #: the friction laws with a velocity band (``tau ~ tanh(v / eps_v)``, docs/model.md section 6): their
