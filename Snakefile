@@ -26,7 +26,7 @@ wildcard_constraints:
     chunk=r"[0-9]{3}",
     stage=r"simulate|lyapunov",
     line=r"[A-Za-z0-9_-]+",  # continuation lines of a grid (grids.<grid>.lines)
-    refinement="|".join(REFINEMENTS),  # refinements and load controls of the convergence runs
+    refinement="|".join(REFINEMENTS),  # refinements and controls of the convergence runs
 
 
 include: "workflow/rules/common.smk"

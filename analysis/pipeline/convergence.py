@@ -100,7 +100,8 @@ REFINEMENTS = {
 #: rule ``interface_damping``, the dashpot coefficient)
 REGULARISED_LAWS = ("full-slip", "stribeck")
 
-#: the entries of :data:`REFINEMENTS` that change the physics (the load), not the numerics
+#: the entries of :data:`REFINEMENTS` that change the load (by 2 %, or by 1e-9: physically nothing),
+#: not the numerics
 CONTROLS = ("load_up", "load_down", "nudge")
 
 #: the least number of sampled points of every label the map has (when it has that many)

@@ -277,7 +277,7 @@ def test_summary_counts_the_labels_that_hold_among_the_robust_points():
     assert s["unflagged"].tolist() == [1] + [pd.NA] * 3
     assert summary_line(s).endswith("moves under a control): k_t x 3 1")
     alone = convergence_summary(runs[runs["refinement"] == "k_t"])
-    assert alone["n_robust"].isna().all() and "controls" not in summary_line(alone)
+    assert alone["n_robust"].isna().all() and "holds under the controls" not in summary_line(alone)
 
 
 def test_settings_defaults_are_the_shipped_config_and_bad_values_are_refused():
