@@ -196,7 +196,8 @@ def grid_refinements(refinements: Sequence[str], points: Sequence[Mapping], grid
 
 def refine(refinement: str, params: dict, numerics: Numerics | dict) -> tuple[dict, Numerics]:
     """The parameters and numerics of ``refinement`` (a key of :data:`REFINEMENTS`, a control
-    among them) applied to one point; everything else unchanged."""
+    among them) applied to one point; everything else unchanged.  A point without load
+    (``f0`` or ``f0_rel`` 0) is its own control: the refined point is the map's (same id)."""
     from analysis.pipeline.stages import integrator
     from beamsim.friction import Friction
     from beamsim.point import DEFAULT_F0_REL, DEFAULT_STEPS_PER_PERIOD
