@@ -89,7 +89,7 @@ def _is_log(grid: dict, name: str) -> bool:
 
 def _title(what: str, grid_name: str, table: pd.DataFrame, axes: list[str], evidence: str | None) -> str:
     """Figure title: what, the grid's fixed parameters, and the map's convergence evidence
-    (:func:`analysis.pipeline.convergence.summary_line`) when given."""
+    (:func:`analysis.pipeline.convergence.title_line`) when given."""
     import textwrap
 
     out = what + "\n" + _fixed_title(grid_name, table, axes)

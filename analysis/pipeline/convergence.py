@@ -70,7 +70,7 @@ __all__ = ["CONTROLS", "ConvergenceSettings", "LOAD_SHIFT", "NUDGE", "REFINEMENT
            "SEPARATION_FACTOR", "applies", "convergence_runs", "convergence_summary", "flagged",
            "grid_refinements", "held_interval", "label_text", "onto_locked", "refine",
            "reuses_reference_runs", "run_metadata", "same_label", "sample_points", "summary_line",
-           "write_convergence_table"]
+           "title_line", "write_convergence_table"]
 
 #: the relative change of the load amplitude of the controls ``load_up`` / ``load_down``
 #: (the size of the change of ``f_cr``, and so of the load at a given ``f0_rel``, that one more
@@ -566,6 +566,40 @@ def summary_line(summary: pd.DataFrame, unchecked: str = "convergence.sample = 0
     if len(onto):
         line += ("; ended locked below the lock-up limit (the map's label there may be a transient): "
                  + ", ".join(f"{r['what']} {int(r['locked_moves'])}" for _, r in onto.iterrows()))
+    return line
+
+
+def title_line(summary: pd.DataFrame | None, unchecked: str = "convergence.sample = 0") -> str:
+    """The short form of :func:`summary_line` for a map's title: the labels held per refinement
+    and control, among the robust points, and the moves without a flag where there are any,
+    without the intervals and the neighbour counts, which the convergence figure and
+    :func:`summary_line` (the convergence table's log) give: ``labels held (convergence.png):
+    step / 2 20/20, ...; controls: load x 1.02 10/20, ...; of the 9 robust: step / 2 9, ...;
+    moved without a flag: k_t x 3 1``, each entry's words joined by no-break spaces
+    (U+00A0), so that a wrapped title keeps an entry whole.  Without runs:
+    :func:`summary_line`'s sentence."""
+    if summary is None or summary.empty:
+        return summary_line(summary, unchecked)
+    control = summary["refinement"].isin(CONTROLS)
+    refs, ctls = summary[~control], summary[control]
+
+    def whole(entry: str) -> str:
+        return entry.replace(" ", "\u00a0")
+
+    def held(rows: pd.DataFrame) -> str:
+        return ", ".join(whole(f"{r['what']} {r['held']}/{r['n']}") for _, r in rows.iterrows())
+
+    line = "labels held (convergence.png): " + held(refs) if len(refs) else "labels held (convergence.png)"
+    if len(ctls):
+        line += ("; controls: " if len(refs) else ": controls: ") + held(ctls)
+    rob = refs[refs["n_robust"].notna()] if "n_robust" in refs else refs.iloc[:0]
+    if len(rob):
+        line += (f"; of the {int(rob['n_robust'].iloc[0])} robust: "
+                 + ", ".join(whole(f"{r['what']} {int(r['held_robust'])}") for _, r in rob.iterrows()))
+    unf = refs[refs["unflagged"].fillna(0) > 0] if "unflagged" in refs else refs.iloc[:0]
+    if len(unf):
+        line += "; moved without a flag: " + ", ".join(whole(f"{r['what']} {int(r['unflagged'])}")
+                                                        for _, r in unf.iterrows())
     return line
 
 

@@ -29,6 +29,7 @@ from analysis.pipeline.convergence import (
     same_label,
     sample_points,
     summary_line,
+    title_line,
     unchecked_reason,
 )
 from analysis.pipeline.grid import canonical_json, point_id
@@ -278,6 +279,16 @@ def test_summary_counts_the_labels_that_hold_among_the_robust_points():
     assert summary_line(s).endswith("moves under a control): k_t x 3 1")
     alone = convergence_summary(runs[runs["refinement"] == "k_t"])
     assert alone["n_robust"].isna().all() and "holds under the controls" not in summary_line(alone)
+    # the map's title: the same counts, short (an entry's words joined by no-break spaces)
+    assert "k_t\u00a0x\u00a03\u00a01/5" in title_line(s)
+    short = title_line(s).replace("\u00a0", " ")
+    assert short == ("labels held (convergence.png): k_t x 3 1/5; controls: load x 1.02 4/5, "
+                     "load / 1.02 4/5, load x (1 + 1e-9) 4/5; of the 2 robust: k_t x 3 1; "
+                     "moved without a flag: k_t x 3 1")
+    # without the controls nothing flags c, d and e: four moves without a flag
+    assert title_line(alone).replace("\u00a0", " ") == ("labels held (convergence.png): k_t x 3 1/5; "
+                                                       "moved without a flag: k_t x 3 4")
+    assert title_line(None, "why") == summary_line(None, "why")
 
 
 def test_settings_defaults_are_the_shipped_config_and_bad_values_are_refused():
