@@ -6,9 +6,10 @@ section 7); above the shakedown limit a motion may still slip for ever.  So a ch
 there may be a chaotic attractor or a chaotic saddle that the beam leaves, after a random
 time, for a locked orbit.  One run cannot tell the two apart; many can.
 :func:`chaos_lifetimes` runs ``copies`` copies of every such cell (by default its chaotic
-ones) from the map's end state, each perturbed by a seeded random ``perturbation`` (relative
-to the largest coordinate and velocity), for ``periods`` forcing periods with the map's
-integrator and step, and records per copy
+and undetermined ones: an undetermined record is broadband or has an exponent interval across
+the margin, and can be a transient as well) from the map's end state, each perturbed by a
+seeded random ``perturbation`` (relative to the largest coordinate and velocity), for
+``periods`` forcing periods with the map's integrator and step, and records per copy
 
 * the period after which it never slipped again (no friction dissipation in any later
   period), and whether the stuck state at the end is **proven** to last (the bound of
@@ -44,7 +45,7 @@ import pandas as pd
 
 from analysis.lifetimes import exponential_lifetime
 from analysis.pipeline.config import Numerics, as_numerics, check_keys
-from analysis.regimes import CHAOTIC, UNSETTLED
+from analysis.regimes import CHAOTIC, UNDETERMINED, UNSETTLED
 from analysis.regimes import LABELS as REGIME_LABELS
 
 __all__ = ["LifetimeGroups", "LifetimeSettings", "chaos_lifetimes", "copy_starts", "copy_outcome",
@@ -59,7 +60,8 @@ LABELS = (*REGIME_LABELS, UNSETTLED)
 class LifetimeSettings:
     """The ``lifetimes`` section of the config.
 
-    labels : the map labels whose cells below the lock-up limit are run (default: chaotic).
+    labels : the map labels whose cells below the lock-up limit are run (default: chaotic and
+        undetermined, the motions that look chaotic; chaotic alone until 2026-11-29).
     copies : perturbed copies per cell (0: the step is off).
     periods : forcing periods each copy runs.
     perturbation : size of the perturbation, relative to the largest coordinate and the
@@ -68,7 +70,7 @@ class LifetimeSettings:
     seed : seed of the perturbations (combined with the cell's grid index).
     """
 
-    labels: tuple[str, ...] = (CHAOTIC,)
+    labels: tuple[str, ...] = (CHAOTIC, UNDETERMINED)
     copies: int = 8
     periods: int = 2000
     perturbation: float = 1e-6
@@ -79,7 +81,7 @@ class LifetimeSettings:
     def from_dict(cls, d: Mapping[str, Any] | None) -> LifetimeSettings:
         d = dict(d or {})
         check_keys("lifetimes", d, [f.name for f in fields(cls)])
-        labels = d.pop("labels", [CHAOTIC])
+        labels = d.pop("labels", list(cls.labels))
         if (not isinstance(labels, (list, tuple)) or not labels
                 or any(lab not in LABELS for lab in labels)):
             raise ValueError(f"lifetimes.labels = {labels!r}; allowed: a non-empty list of {list(LABELS)}")
