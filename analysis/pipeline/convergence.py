@@ -531,8 +531,9 @@ def unchecked_reason(refinements: Sequence[str], points: Sequence[Mapping]) -> s
 
 
 def summary_line(summary: pd.DataFrame, unchecked: str = "convergence.sample = 0") -> str:
-    """One line for a map's title: ``labels hold (sampled points; 95 % interval): step / 2
-    19/20 [0.75-1.00], ...`` (no space inside an interval: a wrapped title keeps it whole),
+    """The whole evidence in one sentence (the convergence table's log; the maps' titles carry
+    its short form, :func:`title_line`; in the titles until 2026-11-29): ``labels hold (sampled
+    points; 95 % interval): step / 2 19/20 [0.75-1.00], ...`` (no space inside an interval),
     followed, when the summary has controls, by ``; of the 9/20 whose label holds under the
     controls: step / 2 9/9, ...``, when it has the neighbour support, by ``; of the
     12/20 whose label a grid neighbour shares: step / 2 12/12, ...``, and by the refinements'
