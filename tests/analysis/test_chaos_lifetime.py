@@ -3,10 +3,12 @@ lock; against the shakedown theorem (below the shakedown limit every motion lock
 selection of cells, the seeded copies and the settings' checks."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+import yaml
 from kicked_start import kicked_locked_orbit
 
 from analysis.lifetimes import exponential_lifetime
@@ -20,6 +22,8 @@ from analysis.pipeline.chaos_lifetime import (
 )
 from beamsim.point import prepare_point
 from beamsim.shakedown import locked_orbit, shakedown_ratio
+
+ROOT = Path(__file__).resolve().parents[2]
 
 #: the one-mode point of tests/beamsim/test_shakedown.py (the default grid's friction)
 POINT = {"n_modes": 1, "mu_s": 0.45, "mu_k": 0.3, "interface_viscosity": 0.0939, "Omega": 2.5}
@@ -94,13 +98,16 @@ def test_a_copy_that_still_slips_is_censored_at_the_horizon():
 
 
 def test_cells_are_those_below_the_lock_up_limit_that_slip_with_the_labels_set():
-    rows = [_row(0.9, i)[0] for i in range(5)]
+    rows = [_row(0.9, i)[0] for i in range(6)]
     rows[1]["lock_ratio"] = 1.02          # above the lock-up limit: no locked orbit to escape to
     rows[2]["stick_fraction"] = 1.0       # the map's run is locked itself
     rows[3]["label"] = "quasi-periodic"
     rows[4]["diverged"] = True
+    rows[5]["label"] = "undetermined"     # looks chaotic: run by default (since 2026-11-29)
     table = pd.DataFrame(rows)
-    assert list(lifetime_cells(table, LifetimeSettings())["point_id"]) == ["p0"]
+    assert list(lifetime_cells(table, LifetimeSettings())["point_id"]) == ["p0", "p5"]
+    shipped = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())["lifetimes"]
+    assert LifetimeSettings.from_dict(shipped) == LifetimeSettings()  # the config's are the defaults
     both = LifetimeSettings.from_dict({"labels": ["chaotic", "quasi-periodic"]})
     assert list(lifetime_cells(table, both)["point_id"]) == ["p0", "p3"]
     first = LifetimeSettings.from_dict({"max_cells": 1, "labels": ["quasi-periodic", "chaotic"]})
