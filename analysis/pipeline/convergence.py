@@ -530,6 +530,14 @@ def unchecked_reason(refinements: Sequence[str], points: Sequence[Mapping]) -> s
             f"{', '.join(laws)}")
 
 
+def _rows_with(summary: pd.DataFrame, column: str, positive: bool = False) -> pd.DataFrame:
+    """The summary's rows where ``column`` is given (``positive``: above 0); none where the
+    summary has no such column."""
+    if column not in summary:
+        return summary.iloc[:0]
+    return summary[summary[column].fillna(0) > 0] if positive else summary[summary[column].notna()]
+
+
 def summary_line(summary: pd.DataFrame, unchecked: str = "convergence.sample = 0") -> str:
     """The whole evidence in one sentence (the convergence table's log; the maps' titles carry
     its short form, :func:`title_line`; in the titles until 2026-11-29): ``labels hold (sampled
@@ -546,24 +554,24 @@ def summary_line(summary: pd.DataFrame, unchecked: str = "convergence.sample = 0
     parts = [f"{r['what']} {r['held']}/{r['n']} [{r['fraction_lo']:.2f}-{r['fraction_hi']:.2f}]"
              for _, r in summary.iterrows()]
     line = "labels hold (sampled points; 95 % interval): " + ", ".join(parts)
-    rob = summary[summary["n_robust"].notna()] if "n_robust" in summary else summary.iloc[:0]
+    rob = _rows_with(summary, "n_robust")
     if len(rob):
         n_rob = int(rob["n_robust"].iloc[0])
         line += (f"; of the {n_rob}/{int(rob['n'].iloc[0])} whose label holds under the "
                  "controls: " + ", ".join(f"{r['what']} {int(r['held_robust'])}/{n_rob}"
                                           for _, r in rob.iterrows()))
-    sup = summary[summary["n_supported"].notna()] if "n_supported" in summary else summary.iloc[:0]
+    sup = _rows_with(summary, "n_supported")
     if len(sup):
         n_sup = int(sup["n_supported"].iloc[0])
         line += (f"; of the {n_sup}/{int(sup['n'].iloc[0])} whose label a grid neighbour shares: "
                  + ", ".join(f"{r['what']} {int(r['held_supported'])}/{n_sup}"
                              for _, r in sup.iterrows()))
-    unf = summary[summary["unflagged"].notna()] if "unflagged" in summary else summary.iloc[:0]
+    unf = _rows_with(summary, "unflagged")
     if len(unf):
         line += ("; moved without a flag (no verdict, no neighbour shares it, moves under a "
                  "control): "
                  + ", ".join(f"{r['what']} {int(r['unflagged'])}" for _, r in unf.iterrows()))
-    onto = summary[summary["locked_moves"].fillna(0) > 0] if "locked_moves" in summary else summary.iloc[:0]
+    onto = _rows_with(summary, "locked_moves", positive=True)
     if len(onto):
         line += ("; ended locked below the lock-up limit (the map's label there may be a transient): "
                  + ", ".join(f"{r['what']} {int(r['locked_moves'])}" for _, r in onto.iterrows()))
@@ -590,18 +598,16 @@ def title_line(summary: pd.DataFrame | None, unchecked: str = "convergence.sampl
     def held(rows: pd.DataFrame) -> str:
         return ", ".join(whole(f"{r['what']} {r['held']}/{r['n']}") for _, r in rows.iterrows())
 
-    line = "labels held (convergence.png): " + held(refs) if len(refs) else "labels held (convergence.png)"
+    parts = [held(refs)] if len(refs) else []
     if len(ctls):
-        line += ("; controls: " if len(refs) else ": controls: ") + held(ctls)
-    rob = refs[refs["n_robust"].notna()] if "n_robust" in refs else refs.iloc[:0]
-    if len(rob):
-        line += (f"; of the {int(rob['n_robust'].iloc[0])} robust: "
-                 + ", ".join(whole(f"{r['what']} {int(r['held_robust'])}") for _, r in rob.iterrows()))
-    unf = refs[refs["unflagged"].fillna(0) > 0] if "unflagged" in refs else refs.iloc[:0]
-    if len(unf):
-        line += "; moved without a flag: " + ", ".join(whole(f"{r['what']} {int(r['unflagged'])}")
-                                                        for _, r in unf.iterrows())
-    return line
+        parts.append("controls: " + held(ctls))
+    if len(rob := _rows_with(refs, "n_robust")):
+        parts.append(f"of the {int(rob['n_robust'].iloc[0])} robust: "
+                     + ", ".join(whole(f"{r['what']} {int(r['held_robust'])}") for _, r in rob.iterrows()))
+    if len(unf := _rows_with(refs, "unflagged", positive=True)):
+        parts.append("moved without a flag: " + ", ".join(whole(f"{r['what']} {int(r['unflagged'])}")
+                                                          for _, r in unf.iterrows()))
+    return "labels held (convergence.png): " + "; ".join(parts)
 
 
 def run_metadata(grid_name: str, settings: dict, config_hash: str) -> dict:
