@@ -1,13 +1,14 @@
-r"""Lifetimes of a map's chaos below the lock-up limit: attractor or long transient?
+r"""Lifetimes of a map's chaos (and tori) below the lock-up limit: attractor or long transient?
 
 Below a cell's lock-up limit (``lock_ratio`` < 1) a locked period-1 orbit exists beside
 whatever the start from rest reached (:func:`beamsim.shakedown.locked_orbit`, docs/model.md
 section 7); above the shakedown limit a motion may still slip for ever.  So a chaotic record
 there may be a chaotic attractor or a chaotic saddle that the beam leaves, after a random
 time, for a locked orbit.  One run cannot tell the two apart; many can.
-:func:`chaos_lifetimes` runs ``copies`` copies of every such cell (by default its chaotic
-and undetermined ones: an undetermined record is broadband or has an exponent interval across
-the margin, and can be a transient as well) from the map's end state, each perturbed by a
+:func:`chaos_lifetimes` runs ``copies`` copies of every such cell (by default its chaotic,
+undetermined and quasi-periodic ones: an undetermined record is broadband or has an exponent
+interval across the margin, and can be a transient as well; a torus there can be a slow
+approach to the locked orbit) from the map's end state, each perturbed by a
 seeded random ``perturbation`` (relative to the largest coordinate and velocity), for
 ``periods`` forcing periods with the map's integrator and step, and records per copy
 
@@ -45,7 +46,7 @@ import pandas as pd
 
 from analysis.lifetimes import exponential_lifetime
 from analysis.pipeline.config import Numerics, as_numerics, check_keys
-from analysis.regimes import CHAOTIC, UNDETERMINED, UNSETTLED
+from analysis.regimes import CHAOTIC, QUASI_PERIODIC, UNDETERMINED, UNSETTLED
 from analysis.regimes import LABELS as REGIME_LABELS
 
 __all__ = ["LifetimeGroups", "LifetimeSettings", "chaos_lifetimes", "copy_starts", "copy_outcome",
@@ -60,8 +61,9 @@ LABELS = (*REGIME_LABELS, UNSETTLED)
 class LifetimeSettings:
     """The ``lifetimes`` section of the config.
 
-    labels : the map labels whose cells below the lock-up limit are run (default: chaotic and
-        undetermined, the motions that look chaotic; chaotic alone until 2026-11-29).
+    labels : the map labels whose cells below the lock-up limit are run (default: chaotic,
+        undetermined and quasi-periodic: the motions that look chaotic, and the tori, which
+        can be slow approaches to a locked orbit; chaotic alone until 2026-11-29).
     copies : perturbed copies per cell (0: the step is off).
     periods : forcing periods each copy runs.
     perturbation : size of the perturbation, relative to the largest coordinate and the
@@ -70,7 +72,7 @@ class LifetimeSettings:
     seed : seed of the perturbations (combined with the cell's grid index).
     """
 
-    labels: tuple[str, ...] = (CHAOTIC, UNDETERMINED)
+    labels: tuple[str, ...] = (CHAOTIC, UNDETERMINED, QUASI_PERIODIC)
     copies: int = 8
     periods: int = 2000
     perturbation: float = 1e-6

@@ -101,11 +101,13 @@ def test_cells_are_those_below_the_lock_up_limit_that_slip_with_the_labels_set()
     rows = [_row(0.9, i)[0] for i in range(6)]
     rows[1]["lock_ratio"] = 1.02          # above the lock-up limit: no locked orbit to escape to
     rows[2]["stick_fraction"] = 1.0       # the map's run is locked itself
-    rows[3]["label"] = "quasi-periodic"
+    rows[3]["label"] = "quasi-periodic"   # a torus may approach the locked orbit: run by default
     rows[4]["diverged"] = True
     rows[5]["label"] = "undetermined"     # looks chaotic: run by default (since 2026-11-29)
     table = pd.DataFrame(rows)
-    assert list(lifetime_cells(table, LifetimeSettings())["point_id"]) == ["p0", "p5"]
+    assert list(lifetime_cells(table, LifetimeSettings())["point_id"]) == ["p0", "p3", "p5"]
+    periodic = table.assign(label="periodic")  # slipping periodic orbits keep their copies: not run
+    assert lifetime_cells(periodic, LifetimeSettings()).empty
     shipped = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())["lifetimes"]
     assert LifetimeSettings.from_dict(shipped) == LifetimeSettings()  # the config's are the defaults
     both = LifetimeSettings.from_dict({"labels": ["chaotic", "quasi-periodic"]})
