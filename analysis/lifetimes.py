@@ -23,6 +23,14 @@ exactly the maximum-likelihood escape probability per unit (a geometric lifetime
 d``); it equals the continuous rate ``kappa`` to first order in ``kappa`` times the unit.  The
 model assumes a memoryless escape, which holds after the trajectories have decorrelated (a few
 Lyapunov times after a perturbed start).
+
+Copies of one start are not independent until they have decorrelated: before that they are one
+trajectory, and counting each as a trajectory of its own multiplies the exposure and the
+escapes by their number, with an interval as narrow as if they were independent.  ``entries``
+left-truncates each trajectory at its own entry time (Cox & Oakes 1984, section 3.4; Klein &
+Moeschberger, *Survival Analysis*, 2003, section 3.4): only its time after the entry counts,
+and an escape or censoring at or before the entry leaves it out.  With a memoryless escape the
+maximum-likelihood estimate stays ``d / S``, ``S`` now the time observed after the entries.
 """
 
 from __future__ import annotations
@@ -53,7 +61,7 @@ class LifetimeEstimate(NamedTuple):
     lifetime_hi: float
 
 
-def exponential_lifetime(times, escaped, level: float = 0.95) -> LifetimeEstimate:
+def exponential_lifetime(times, escaped, level: float = 0.95, entries=None) -> LifetimeEstimate:
     """The escape rate and mean lifetime of an exponential escape from right-censored times.
 
     Parameters
@@ -62,11 +70,14 @@ def exponential_lifetime(times, escaped, level: float = 0.95) -> LifetimeEstimat
         the set (its censoring time); non-negative, finite.
     escaped : per trajectory, whether ``times`` is an escape (``True``) or a censoring.
     level : two-sided confidence level of the interval, in (0, 1).
+    entries : per trajectory, the time from which it counts (left truncation; default 0 for
+        all; ``inf``: it does not count); a trajectory whose ``times`` is at or before a
+        positive entry is left out.
 
     Returns
     -------
-    :class:`LifetimeEstimate`; with no exposure (``S = 0``: no trajectory, or all at time 0)
-    every estimate is ``nan``.
+    :class:`LifetimeEstimate` (``n``: the trajectories that count); with no exposure (``S =
+    0``: no trajectory counts, or all at their entry) every estimate is ``nan``.
     """
     t = np.asarray(times, dtype=float).ravel()
     e = np.asarray(escaped, dtype=bool).ravel()
@@ -76,6 +87,12 @@ def exponential_lifetime(times, escaped, level: float = 0.95) -> LifetimeEstimat
         raise ValueError("times must be finite and non-negative")
     if not 0.0 < level < 1.0:
         raise ValueError(f"level = {level!r}; allowed: 0 < level < 1")
+    if entries is not None:
+        start = np.asarray(entries, dtype=float).ravel()
+        if start.shape != t.shape or np.any(np.isnan(start)) or np.any(start < 0):
+            raise ValueError("entries must be one non-negative time (or inf) per trajectory")
+        counts = (t > start) | (start == 0.0)  # entry 0: as without entries
+        t, e = t[counts] - start[counts], e[counts]
     from scipy.stats import chi2  # here, not at import: the workflow's plan imports this module
 
     d, s = int(e.sum()), float(t.sum())

@@ -22,10 +22,12 @@ seeded random ``perturbation`` (relative to the largest coordinate and velocity)
 Copies that diverged or met ``expo``'s Zeno guard are left out and counted (``n_failed``).
 The mean lifetime follows from the escape and censoring times
 (:func:`analysis.lifetimes.exponential_lifetime`: escape rate, mean lifetime and its 95 %
-interval in forcing periods; with no escape, a lower bound).  The copies decorrelate within a
-few Lyapunov times (``ln(1 / perturbation) / (lambda_1 T)`` periods), which must be short
-against the lifetimes measured (docs/pipeline.md, "Lifetimes of the chaos below the lock-up
-limit", gives both for the default map).
+interval in forcing periods; with no escape, a lower bound).  Copies are independent only once
+their perturbations have grown to the attractor's size, after :func:`decorrelation_periods`
+(from the map's exponent); until then they are one trajectory.  So the first copy counts from
+the start and every other one only after that time (left truncation; none of them where the
+exponent is not above zero, as at a torus, whose copies never decorrelate).  The table's
+``decorrelation`` and ``n_counted`` say which.
 
 What it does not measure: escapes to another slipping attractor (a copy that leaves the
 chaotic set for a slipping periodic orbit is counted as surviving), and lifetimes of chaos
@@ -50,8 +52,8 @@ from analysis.regimes import CHAOTIC, QUASI_PERIODIC, UNDETERMINED, UNSETTLED
 from analysis.regimes import LABELS as REGIME_LABELS
 
 __all__ = ["LifetimeGroups", "LifetimeSettings", "chaos_lifetimes", "copy_starts", "copy_outcome",
-           "group_text", "lifetime_cells", "lifetime_groups", "lifetime_range", "summary_line",
-           "write_lifetime_table"]
+           "decorrelation_periods", "group_text", "lifetime_cells", "lifetime_groups", "lifetime_range",
+           "summary_line", "write_lifetime_table"]
 
 #: labels a setting may name (the classifier's, and a record still transient at the cap)
 LABELS = (*REGIME_LABELS, UNSETTLED)
@@ -163,19 +165,35 @@ def copy_outcome(result, pp) -> tuple[str, float]:
     return ("escaped" if stuck and stuck_bound(pp, x) < 1.0 else "unproven"), float(quiet)
 
 
+def decorrelation_periods(lle_T: float, perturbation: float) -> float:
+    """Forcing periods after which copies perturbed by ``perturbation`` (relative to the
+    attractor's size) have decorrelated: ``ceil(ln(1 / perturbation) / lle_T)``, with ``lle_T``
+    the map's estimate of ``lambda_1 T`` (per forcing period); ``inf`` where it is not positive
+    or not known (a regular or neutral motion, a torus: its copies do not part at an
+    exponential rate, and stay one trajectory)."""
+    if not (np.isfinite(lle_T) and lle_T > 0.0):
+        return np.inf
+    return float(np.ceil(np.log(1.0 / perturbation) / lle_T))
+
+
 def _cell_row(row: pd.Series, outcomes: list[tuple[str, float]], axes: Sequence[str],
               settings: LifetimeSettings, method: str) -> dict:
     kinds = [k for k, _ in outcomes]
     used = [(k, t) for k, t in outcomes if k != "failed"]
-    est = exponential_lifetime([t for _, t in used], [k == "escaped" for k, _ in used])
     T = 2.0 * np.pi / float(row["omega"])
+    lle_T = float(row["lle_mean"]) * T
+    t_dec = decorrelation_periods(lle_T, settings.perturbation)
+    # the first copy that ran counts from the start, the others once they have decorrelated
+    est = exponential_lifetime([t for _, t in used], [k == "escaped" for k, _ in used],
+                               entries=[0.0] + [t_dec] * (len(used) - 1) if used else [])
     return {"point_id": row["point_id"], **{a: row[a] for a in axes},
             **{c: int(row[c]) for c in row.index if c.startswith("index_")},
-            "label": row["label"], "lle_T": float(row["lle_mean"]) * T,
+            "label": row["label"], "lle_T": lle_T,
             "lock_ratio": float(row["lock_ratio"]), "shakedown_ratio": float(row["shakedown_ratio"]),
             "copies": settings.copies, "periods": settings.periods, "method": method,
             "n_escaped": kinds.count("escaped"), "n_unproven": kinds.count("unproven"),
-            "n_failed": kinds.count("failed"), "exposure": est.exposure, "escape_rate": est.rate,
+            "n_failed": kinds.count("failed"), "decorrelation": t_dec, "n_counted": est.n,
+            "exposure": est.exposure, "escape_rate": est.rate,
             "lifetime": est.lifetime, "lifetime_lo": est.lifetime_lo, "lifetime_hi": est.lifetime_hi,
             "escape_periods": sorted(int(t) for k, t in used if k == "escaped"),
             "censor_periods": sorted(int(t) for k, t in used if k != "escaped")}
@@ -185,9 +203,12 @@ def chaos_lifetimes(table: pd.DataFrame, simulated: pd.DataFrame, numerics: Nume
                     settings: LifetimeSettings, axes: Sequence[str], threads: int = 1) -> pd.DataFrame:
     """One row per cell of :func:`lifetime_cells` (grid order): the map's label, ``lle_T``,
     ``lock_ratio``, ``shakedown_ratio``, the copies' outcomes (``n_escaped``, ``n_unproven``,
-    ``n_failed``, ``escape_periods``, ``censor_periods``) and the exponential estimate
-    (``exposure``, ``escape_rate`` per period, ``lifetime``, ``lifetime_lo``, ``lifetime_hi``
-    in forcing periods; :func:`analysis.lifetimes.exponential_lifetime`).
+    ``n_failed``, ``escape_periods``, ``censor_periods``), ``decorrelation`` (periods,
+    :func:`decorrelation_periods`), ``n_counted`` (the copies that count: the first, and the
+    others that outlast the decorrelation) and the exponential estimate (``exposure``,
+    ``escape_rate`` per period, ``lifetime``, ``lifetime_lo``, ``lifetime_hi`` in forcing
+    periods; :func:`analysis.lifetimes.exponential_lifetime` with the others left-truncated at
+    the decorrelation).
 
     ``simulated``: the map's simulate records (``point_id``, ``final_state``)."""
     from beamsim.pattern_store import PatternStore
@@ -210,8 +231,8 @@ def chaos_lifetimes(table: pd.DataFrame, simulated: pd.DataFrame, numerics: Nume
         rows.append(_cell_row(row, [copy_outcome(r, pp) for r in batch.results], axes, settings, method))
     columns = ["point_id", *axes, *(c for c in table.columns if c.startswith("index_")), "label", "lle_T",
                "lock_ratio", "shakedown_ratio", "copies", "periods", "method", "n_escaped", "n_unproven",
-               "n_failed", "exposure", "escape_rate", "lifetime", "lifetime_lo", "lifetime_hi",
-               "escape_periods", "censor_periods"]
+               "n_failed", "decorrelation", "n_counted", "exposure", "escape_rate", "lifetime", "lifetime_lo",
+               "lifetime_hi", "escape_periods", "censor_periods"]
     return pd.DataFrame(rows, columns=columns)
 
 
@@ -247,12 +268,17 @@ def lifetime_groups(lifetimes: pd.DataFrame) -> LifetimeGroups:
 
 def group_text(groups: LifetimeGroups) -> dict[str, str]:
     """Per non-empty group of :func:`lifetime_groups`, one clause with its count and lifetimes
-    (``escaped``: the range of the mean lifetimes; ``none``: the least lower bound, and how
+    (``escaped``: the range of the finite mean lifetimes, and how many have none because no
+    copy that counts escaped, :func:`chaos_lifetimes`; ``none``: the least lower bound, and how
     many of those cells had copies stuck at the end but not proven to stay so)."""
     out = {}
     if len(groups.escaped):
-        out["escaped"] = (f"{len(groups.escaped)} with copies proven to end locked (a transient, "
-                          f"mean lifetimes {lifetime_range(groups.escaped['lifetime'])} periods)")
+        life = groups.escaped["lifetime"].astype(float)
+        finite = life[np.isfinite(life)]
+        span = f", mean lifetimes {lifetime_range(finite)} periods" if len(finite) else ""
+        early = len(life) - len(finite)  # escapes only of copies that had not decorrelated
+        early = f"; {early} with no escape among the copies counted" if early else ""
+        out["escaped"] = f"{len(groups.escaped)} with copies proven to end locked (a transient{span}{early})"
     if len(groups.none):
         unproven = int((groups.none["n_unproven"] > 0).sum())
         stuck = f"; {unproven} with copies stuck at the end, not proven" if unproven else ""

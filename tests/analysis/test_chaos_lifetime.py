@@ -17,6 +17,7 @@ from analysis.pipeline.chaos_lifetime import (
     chaos_lifetimes,
     copy_outcome,
     copy_starts,
+    decorrelation_periods,
     lifetime_cells,
     summary_line,
 )
@@ -30,17 +31,20 @@ POINT = {"n_modes": 1, "mu_s": 0.45, "mu_k": 0.3, "interface_viscosity": 0.0939,
 NUMERICS = {"method": "expo"}
 
 
-def _row(target: float, index: int, label: str = "chaotic") -> tuple[dict, np.ndarray]:
+def _row(target: float, index: int, label: str = "chaotic",
+         lle_T: float = 14.0) -> tuple[dict, np.ndarray]:
     """A map row at ``target`` times the shakedown load of ``POINT``, its end state a start far
     off the locked orbit (a velocity kick of 30 times the orbit's scale in the slowest stuck
-    mode: it slips for many periods)."""
+    mode: it slips for many periods); its exponent ``lle_T`` per forcing period (by default
+    copies perturbed by 1e-6 decorrelate within one period)."""
     pp0 = prepare_point(**POINT, f0_rel=0.8)
     params = POINT | {"f0_rel": 0.8 * target / shakedown_ratio(pp0)}
     pp = prepare_point(**params)
     orbit = locked_orbit(pp)
     x = kicked_locked_orbit(pp)
     row = {"point_id": f"p{index}", "Omega": params["Omega"], "f0_rel": params["f0_rel"], "index_0": index,
-           "label": label, "lle_mean": 0.01, "omega": pp.omega, "lock_ratio": float(orbit.ratio.max()),
+           "label": label, "lle_mean": lle_T * pp.omega / (2 * np.pi),
+           "omega": pp.omega, "lock_ratio": float(orbit.ratio.max()),
            "shakedown_ratio": shakedown_ratio(pp), "stick_fraction": 0.9, "diverged": False,
            "params_json": json.dumps(params)}
     return row, x
@@ -57,8 +61,9 @@ def test_below_the_shakedown_limit_every_copy_locks_and_is_proven_to_stay():
     r = out.iloc[0]
     assert r["n_escaped"] == 3 and r["n_unproven"] == 0 and r["n_failed"] == 0
     assert all(20 < t < 300 for t in r["escape_periods"])
-    est = exponential_lifetime(r["escape_periods"], [True] * 3)
-    assert r["lifetime"] == pytest.approx(est.lifetime) and r["exposure"] == sum(r["escape_periods"])
+    assert r["decorrelation"] == 1.0 and r["n_counted"] == 3  # the others count after one period
+    est = exponential_lifetime(r["escape_periods"], [True] * 3, entries=[0.0, 1.0, 1.0])
+    assert r["lifetime"] == pytest.approx(est.lifetime) and r["exposure"] == sum(r["escape_periods"]) - 2
     assert (f"1 with copies proven to end locked (a transient, mean lifetimes {r['lifetime']:.0f} periods)"
             in summary_line(out))
 
@@ -73,7 +78,7 @@ def test_a_stuck_end_the_bound_does_not_prove_is_censored_where_the_stuck_stretc
     st = LifetimeSettings.from_dict({"copies": 2, "periods": 300})
     r = chaos_lifetimes(pd.DataFrame([row]), sim, NUMERICS, st, ["Omega", "f0_rel"]).iloc[0]
     assert r["n_escaped"] == 0 and r["n_unproven"] == 2
-    assert all(100 < t < 300 for t in r["censor_periods"]) and r["exposure"] == sum(r["censor_periods"])
+    assert all(100 < t < 300 for t in r["censor_periods"]) and r["exposure"] == sum(r["censor_periods"]) - 1
 
 
 def test_the_table_does_not_depend_on_the_thread_count():
@@ -93,8 +98,28 @@ def test_a_copy_that_still_slips_is_censored_at_the_horizon():
     st = LifetimeSettings.from_dict({"copies": 2, "periods": 10})
     r = chaos_lifetimes(pd.DataFrame([row]), sim, NUMERICS, st, ["Omega", "f0_rel"]).iloc[0]
     assert r["n_escaped"] == 0 and list(r["censor_periods"]) == [10, 10]
-    assert r["lifetime"] == np.inf and r["lifetime_lo"] == pytest.approx(20 / 3.6889, rel=1e-4)
+    assert r["lifetime"] == np.inf and r["lifetime_lo"] == pytest.approx((10 + 9) / 3.6889, rel=1e-4)
     assert summary_line(pd.DataFrame([r])).endswith(": 1 without (mean lifetime > 5 periods)")
+
+
+def test_copies_of_a_motion_without_exponential_divergence_count_as_one():
+    """Where the map's exponent is not above zero (a torus, a neutral record) the copies never
+    decorrelate: one trajectory, so only the first counts (its own
+    escape time is the exposure), whatever the others did; they are still reported."""
+    row, x = _row(0.5, 0, lle_T=-0.01)
+    sim = pd.DataFrame({"point_id": ["p0"], "final_state": [x]})
+    st = LifetimeSettings.from_dict({"copies": 3, "periods": 300})
+    r = chaos_lifetimes(pd.DataFrame([row]), sim, NUMERICS, st, ["Omega", "f0_rel"]).iloc[0]
+    assert r["n_escaped"] == 3 and r["decorrelation"] == np.inf and r["n_counted"] == 1
+    assert r["exposure"] in set(r["escape_periods"]) and r["lifetime"] == r["exposure"]
+    assert r["lifetime_hi"] > 30 * r["lifetime"]  # one escape: a wide interval
+
+
+def test_the_decorrelation_time_is_the_growth_of_the_perturbation_to_the_attractors_size():
+    assert decorrelation_periods(0.5, 1e-6) == np.ceil(np.log(1e6) / 0.5) == 28.0
+    assert decorrelation_periods(14.0, 1e-6) == 1.0
+    for lam in (0.0, -0.2, np.nan):
+        assert decorrelation_periods(lam, 1e-6) == np.inf
 
 
 def test_cells_are_those_below_the_lock_up_limit_that_slip_with_the_labels_set():
@@ -195,6 +220,10 @@ def test_a_cell_with_no_time_observed_is_unmeasured_not_a_bound():
         "lifetimes of 3 cells below the lock-up limit: 1 with copies proven to end locked (a transient, "
         "mean lifetimes 450 periods), 1 without (mean lifetime > 4066 periods; 1 with copies stuck at "
         "the end, not proven), 1 not measured (no time observed)")
+    early = rows.iloc[:1].assign(lifetime=np.inf)  # escapes only of copies that do not count
+    assert summary_line(pd.concat([rows.iloc[:1], early])) == (
+        "lifetimes of 2 cells below the lock-up limit: 2 with copies proven to end locked (a transient, "
+        "mean lifetimes 450 periods; 1 with no escape among the copies counted)")
 
 
 def test_copies_run_on_the_integrator_of_the_maps_run():

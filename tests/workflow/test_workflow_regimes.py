@@ -170,8 +170,8 @@ def test_lifetime_step_ships_with_the_map(first_run):
     table = pd.read_parquet(out / "tiny.parquet")
     expected = table[(table["lock_ratio"] < 1.0) & (table["stick_fraction"] < 1.0) & ~table["diverged"]]
     assert list(life["point_id"]) == list(expected["point_id"])
-    for col in ("n_escaped", "n_unproven", "n_failed", "exposure", "lifetime", "lifetime_lo", "lifetime_hi",
-                "escape_periods", "censor_periods", "lock_ratio", "f0_rel"):
+    for col in ("n_escaped", "n_unproven", "n_failed", "decorrelation", "n_counted", "exposure", "lifetime",
+                "lifetime_lo", "lifetime_hi", "escape_periods", "censor_periods", "lock_ratio", "f0_rel"):
         assert col in life.columns, col
     meta = json.loads(pq.read_schema(out / "tiny" / "lifetimes.parquet").metadata[b"beamsim.lifetimes"])
     assert meta["config_hash"] == read_regime_metadata(out / "tiny.parquet")["config_hash"]
