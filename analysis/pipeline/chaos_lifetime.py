@@ -269,8 +269,9 @@ def lifetime_groups(lifetimes: pd.DataFrame) -> LifetimeGroups:
 def group_text(groups: LifetimeGroups) -> dict[str, str]:
     """Per non-empty group of :func:`lifetime_groups`, one clause with its count and lifetimes
     (``escaped``: the range of the finite mean lifetimes, and how many have none because no
-    copy that counts escaped, :func:`chaos_lifetimes`; ``none``: the least lower bound, and how
-    many of those cells had copies stuck at the end but not proven to stay so)."""
+    copy that counts escaped, :func:`chaos_lifetimes`; ``none``: the least lower bound, how
+    many of those cells had copies stuck at the end but not proven to stay so, and how many
+    count their copies as one trajectory, ``n_counted`` 1)."""
     out = {}
     if len(groups.escaped):
         life = groups.escaped["lifetime"].astype(float)
@@ -282,8 +283,10 @@ def group_text(groups: LifetimeGroups) -> dict[str, str]:
     if len(groups.none):
         unproven = int((groups.none["n_unproven"] > 0).sum())
         stuck = f"; {unproven} with copies stuck at the end, not proven" if unproven else ""
+        one = int((groups.none["n_counted"] == 1).sum()) if "n_counted" in groups.none else 0
+        one = f"; {one} whose copies count as one trajectory" if one else ""
         out["none"] = (f"{len(groups.none)} without (mean lifetime > "
-                       f"{groups.none['lifetime_lo'].min():.0f} periods{stuck})")
+                       f"{groups.none['lifetime_lo'].min():.0f} periods{stuck}{one})")
     if len(groups.unmeasured):
         out["unmeasured"] = f"{len(groups.unmeasured)} not measured (no time observed)"
     return out

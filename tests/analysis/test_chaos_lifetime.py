@@ -224,6 +224,9 @@ def test_a_cell_with_no_time_observed_is_unmeasured_not_a_bound():
     assert summary_line(pd.concat([rows.iloc[:1], early])) == (
         "lifetimes of 2 cells below the lock-up limit: 2 with copies proven to end locked (a transient, "
         "mean lifetimes 450 periods; 1 with no escape among the copies counted)")
+    one = rows.iloc[1:2].assign(n_counted=1, lifetime_lo=542.0)  # a torus: its copies never part
+    assert summary_line(one).endswith("1 without (mean lifetime > 542 periods; 1 with copies stuck at "
+                                      "the end, not proven; 1 whose copies count as one trajectory)")
 
 
 def test_copies_run_on_the_integrator_of_the_maps_run():
