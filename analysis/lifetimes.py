@@ -27,9 +27,9 @@ Lyapunov times after a perturbed start).
 Copies of one start are not independent until they have decorrelated: before that they are one
 trajectory, and counting each as a trajectory of its own multiplies the exposure and the
 escapes by their number, with an interval as narrow as if they were independent.  ``entries``
-left-truncates each trajectory at its own entry time (Cox & Oakes 1984, section 3.4; Klein &
-Moeschberger, *Survival Analysis*, 2003, section 3.4): only its time after the entry counts,
-and an escape or censoring at or before the entry leaves it out.  With a memoryless escape the
+left-truncates each trajectory at its own entry time (delayed entry: Klein & Moeschberger,
+*Survival Analysis*, 2003, ch. 3): only its time after the entry counts, and an escape or
+censoring at or before the entry leaves it out.  With a memoryless escape the
 maximum-likelihood estimate stays ``d / S``, ``S`` now the time observed after the entries.
 """
 
