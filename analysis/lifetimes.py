@@ -45,11 +45,11 @@ __all__ = ["LifetimeEstimate", "exponential_lifetime"]
 class LifetimeEstimate(NamedTuple):
     """Result of :func:`exponential_lifetime` (times in the units of the input).
 
-    n : trajectories; escaped : how many escaped (``d``); exposure : ``S``, the total time
-    observed on the set; rate : ``d / S`` (the escape rate's maximum-likelihood estimate);
-    lifetime : ``1 / rate`` (``inf`` when none escaped); lifetime_lo, lifetime_hi : the
-    interval of the mean lifetime at ``level`` (``lifetime_hi`` is ``inf`` when none escaped:
-    then ``lifetime_lo`` is a lower bound).
+    n : the trajectories that count; escaped : how many of them escaped (``d``); exposure :
+    ``S``, the total time observed on the set; rate : ``d / S`` (the escape rate's
+    maximum-likelihood estimate); lifetime : ``1 / rate`` (``inf`` when none escaped);
+    lifetime_lo, lifetime_hi : the interval of the mean lifetime at ``level`` (``lifetime_hi``
+    is ``inf`` when none escaped: then ``lifetime_lo`` is a lower bound).
     """
 
     n: int

@@ -24,9 +24,10 @@ The mean lifetime follows from the escape and censoring times
 (:func:`analysis.lifetimes.exponential_lifetime`: escape rate, mean lifetime and its 95 %
 interval in forcing periods; with no escape, a lower bound).  Copies are independent only once
 their perturbations have grown to the attractor's size, after :func:`decorrelation_periods`
-(from the map's exponent); until then they are one trajectory.  So the first copy counts from
-the start and every other one only after that time (left truncation; none of them where the
-exponent is not above zero, as at a torus, whose copies never decorrelate).  The table's
+(from the lower end of the map's exponent interval); until then they are one trajectory.  So
+the first copy counts from the start and every other one only after that time (left
+truncation; none of them where that end is not above zero, as at a torus, whose copies never
+decorrelate, or at an undetermined record).  The table's
 ``decorrelation`` and ``n_counted`` say which.
 
 What it does not measure: escapes to another slipping attractor (a copy that leaves the
@@ -165,15 +166,17 @@ def copy_outcome(result, pp) -> tuple[str, float]:
     return ("escaped" if stuck and stuck_bound(pp, x) < 1.0 else "unproven"), float(quiet)
 
 
-def decorrelation_periods(lle_T: float, perturbation: float) -> float:
+def decorrelation_periods(lle_lo_T: float, perturbation: float) -> float:
     """Forcing periods after which copies perturbed by ``perturbation`` (relative to the
-    attractor's size) have decorrelated: ``ceil(ln(1 / perturbation) / lle_T)``, with ``lle_T``
-    the map's estimate of ``lambda_1 T`` (per forcing period); ``inf`` where it is not positive
-    or not known (a regular or neutral motion, a torus: its copies do not part at an
-    exponential rate, and stay one trajectory)."""
-    if not (np.isfinite(lle_T) and lle_T > 0.0):
+    largest coordinate and velocity, about the attractor's size) have decorrelated:
+    ``ceil(ln(1 / perturbation) / lle_lo_T)``, with ``lle_lo_T`` the lower end of the map's
+    95 % interval of ``lambda_1 T`` (per forcing period; the slowest growth the record allows);
+    ``inf`` where it is not positive or not known (a regular or neutral motion, a torus, an
+    undetermined record: its copies need not part at an exponential rate, and count as one
+    trajectory)."""
+    if not (np.isfinite(lle_lo_T) and lle_lo_T > 0.0):
         return np.inf
-    return float(np.ceil(np.log(1.0 / perturbation) / lle_T))
+    return float(np.ceil(np.log(1.0 / perturbation) / lle_lo_T))
 
 
 def _cell_row(row: pd.Series, outcomes: list[tuple[str, float]], axes: Sequence[str],
@@ -182,7 +185,7 @@ def _cell_row(row: pd.Series, outcomes: list[tuple[str, float]], axes: Sequence[
     used = [(k, t) for k, t in outcomes if k != "failed"]
     T = 2.0 * np.pi / float(row["omega"])
     lle_T = float(row["lle_mean"]) * T
-    t_dec = decorrelation_periods(lle_T, settings.perturbation)
+    t_dec = decorrelation_periods(float(row.get("lle_lo", np.nan)) * T, settings.perturbation)
     # the first copy that ran counts from the start, the others once they have decorrelated
     est = exponential_lifetime([t for _, t in used], [k == "escaped" for k, _ in used],
                                entries=[0.0] + [t_dec] * (len(used) - 1) if used else [])
@@ -270,8 +273,9 @@ def group_text(groups: LifetimeGroups) -> dict[str, str]:
     """Per non-empty group of :func:`lifetime_groups`, one clause with its count and lifetimes
     (``escaped``: the range of the finite mean lifetimes, and how many have none because no
     copy that counts escaped, :func:`chaos_lifetimes`; ``none``: the least lower bound, how
-    many of those cells had copies stuck at the end but not proven to stay so, and how many
-    count their copies as one trajectory, ``n_counted`` 1)."""
+    many of those cells had copies stuck at the end but not proven to stay so, and the cells
+    whose copies do not decorrelate within the run (one trajectory each; their count and least
+    bound given apart where there are others)."""
     out = {}
     if len(groups.escaped):
         life = groups.escaped["lifetime"].astype(float)
@@ -281,12 +285,22 @@ def group_text(groups: LifetimeGroups) -> dict[str, str]:
         early = f"; {early} with no escape among the copies counted" if early else ""
         out["escaped"] = f"{len(groups.escaped)} with copies proven to end locked (a transient{span}{early})"
     if len(groups.none):
-        unproven = int((groups.none["n_unproven"] > 0).sum())
+        none = groups.none
+        unproven = int((none["n_unproven"] > 0).sum())
         stuck = f"; {unproven} with copies stuck at the end, not proven" if unproven else ""
-        one = int((groups.none["n_counted"] == 1).sum()) if "n_counted" in groups.none else 0
-        one = f"; {one} whose copies count as one trajectory" if one else ""
-        out["none"] = (f"{len(groups.none)} without (mean lifetime > "
-                       f"{groups.none['lifetime_lo'].min():.0f} periods{stuck}{one})")
+        # cells whose copies do not decorrelate within the run count one trajectory: their
+        # (lower) bounds are given apart, where there are others
+        one = (none["decorrelation"] >= none["periods"] if "decorrelation" in none
+               else pd.Series(False, index=none.index))
+        bound, apart = none, ""
+        if one.any() and not one.all():
+            bound = none[~one]
+            apart = (f"; {int(one.sum())} whose copies do not decorrelate within the run: > "
+                     f"{none.loc[one, 'lifetime_lo'].min():.0f}")
+        elif one.any():
+            apart = "; copies that do not decorrelate within the run"
+        out["none"] = (f"{len(none)} without (mean lifetime > {bound['lifetime_lo'].min():.0f} periods"
+                       f"{stuck}{apart})")
     if len(groups.unmeasured):
         out["unmeasured"] = f"{len(groups.unmeasured)} not measured (no time observed)"
     return out

@@ -32,18 +32,18 @@ NUMERICS = {"method": "expo"}
 
 
 def _row(target: float, index: int, label: str = "chaotic",
-         lle_T: float = 14.0) -> tuple[dict, np.ndarray]:
+         lle_lo_T: float = 14.0) -> tuple[dict, np.ndarray]:
     """A map row at ``target`` times the shakedown load of ``POINT``, its end state a start far
     off the locked orbit (a velocity kick of 30 times the orbit's scale in the slowest stuck
-    mode: it slips for many periods); its exponent ``lle_T`` per forcing period (by default
-    copies perturbed by 1e-6 decorrelate within one period)."""
+    mode: it slips for many periods); the lower end of its exponent interval ``lle_lo_T`` per
+    forcing period (by default copies perturbed by 1e-6 decorrelate within one period)."""
     pp0 = prepare_point(**POINT, f0_rel=0.8)
     params = POINT | {"f0_rel": 0.8 * target / shakedown_ratio(pp0)}
     pp = prepare_point(**params)
     orbit = locked_orbit(pp)
     x = kicked_locked_orbit(pp)
     row = {"point_id": f"p{index}", "Omega": params["Omega"], "f0_rel": params["f0_rel"], "index_0": index,
-           "label": label, "lle_mean": lle_T * pp.omega / (2 * np.pi),
+           "label": label, "lle_mean": 0.01, "lle_lo": lle_lo_T * pp.omega / (2 * np.pi),
            "omega": pp.omega, "lock_ratio": float(orbit.ratio.max()),
            "shakedown_ratio": shakedown_ratio(pp), "stick_fraction": 0.9, "diverged": False,
            "params_json": json.dumps(params)}
@@ -103,15 +103,15 @@ def test_a_copy_that_still_slips_is_censored_at_the_horizon():
 
 
 def test_copies_of_a_motion_without_exponential_divergence_count_as_one():
-    """Where the map's exponent is not above zero (a torus, a neutral record) the copies never
-    decorrelate: one trajectory, so only the first counts (its own
+    """Where the lower end of the map's exponent interval is not above zero (a torus, an
+    undetermined record) the copies need not decorrelate: one trajectory, so only the first counts (its own
     escape time is the exposure), whatever the others did; they are still reported."""
-    row, x = _row(0.5, 0, lle_T=-0.01)
+    row, x = _row(0.5, 0, lle_lo_T=-0.01)
     sim = pd.DataFrame({"point_id": ["p0"], "final_state": [x]})
     st = LifetimeSettings.from_dict({"copies": 3, "periods": 300})
     r = chaos_lifetimes(pd.DataFrame([row]), sim, NUMERICS, st, ["Omega", "f0_rel"]).iloc[0]
     assert r["n_escaped"] == 3 and r["decorrelation"] == np.inf and r["n_counted"] == 1
-    assert r["exposure"] in set(r["escape_periods"]) and r["lifetime"] == r["exposure"]
+    assert r["exposure"] in set(r["escape_periods"]) and r["lifetime"] == pytest.approx(r["exposure"])
     assert r["lifetime_hi"] > 30 * r["lifetime"]  # one escape: a wide interval
 
 
@@ -224,9 +224,13 @@ def test_a_cell_with_no_time_observed_is_unmeasured_not_a_bound():
     assert summary_line(pd.concat([rows.iloc[:1], early])) == (
         "lifetimes of 2 cells below the lock-up limit: 2 with copies proven to end locked (a transient, "
         "mean lifetimes 450 periods; 1 with no escape among the copies counted)")
-    one = rows.iloc[1:2].assign(n_counted=1, lifetime_lo=542.0)  # a torus: its copies never part
-    assert summary_line(one).endswith("1 without (mean lifetime > 542 periods; 1 with copies stuck at "
-                                      "the end, not proven; 1 whose copies count as one trajectory)")
+    # a torus (its copies never part) beside a chaotic cell: its bound, one copy's, given apart
+    torus = rows.iloc[1:2].assign(decorrelation=np.inf, periods=2000, lifetime_lo=542.0, n_unproven=0)
+    chaos = rows.iloc[1:2].assign(decorrelation=40.0, periods=2000, n_unproven=0)
+    assert summary_line(pd.concat([chaos, torus])).endswith(
+        "2 without (mean lifetime > 4066 periods; 1 whose copies do not decorrelate within the run: > 542)")
+    assert summary_line(torus).endswith(
+        "1 without (mean lifetime > 542 periods; copies that do not decorrelate within the run)")
 
 
 def test_copies_run_on_the_integrator_of_the_maps_run():

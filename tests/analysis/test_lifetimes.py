@@ -136,3 +136,15 @@ def test_refuses_bad_input():
         exponential_lifetime([1.0, 2.0], [True, True], entries=[0.0])
     with pytest.raises(ValueError, match="entries"):
         exponential_lifetime([1.0], [True], entries=[-1.0])
+    with pytest.raises(ValueError, match="entries"):
+        exponential_lifetime([1.0], [True], entries=[np.nan])
+
+
+def test_a_trajectory_counts_only_after_its_entry():
+    """Entry 0 counts from the start (even an escape at 0); a positive entry at or after the
+    trajectory's time leaves it out; otherwise only the time after the entry counts."""
+    est = exponential_lifetime([5.0, 5.0, 7.0], [True, True, True], entries=[0.0, 5.0, 5.0])
+    assert (est.n, est.escaped, est.exposure) == (2, 2, 7.0)
+    est = exponential_lifetime([0.0, 9.0, 3.0], [True, False, True], entries=[0.0, 2.0, np.inf])
+    assert (est.n, est.escaped, est.exposure) == (2, 1, 7.0)
+    assert np.isnan(exponential_lifetime([4.0], [True], entries=[np.inf]).lifetime)
