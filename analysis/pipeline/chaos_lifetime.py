@@ -281,8 +281,8 @@ def group_text(groups: LifetimeGroups) -> dict[str, str]:
         life = groups.escaped["lifetime"].astype(float)
         finite = life[np.isfinite(life)]
         span = f", mean lifetimes {lifetime_range(finite)} periods" if len(finite) else ""
-        early = len(life) - len(finite)  # escapes only of copies that had not decorrelated
-        early = f"; {early} with no escape among the copies counted" if early else ""
+        n_early = len(life) - len(finite)  # escapes only of copies that had not decorrelated
+        early = f"; {n_early} with no escape among the copies counted" if n_early else ""
         out["escaped"] = f"{len(groups.escaped)} with copies proven to end locked (a transient{span}{early})"
     if len(groups.none):
         none = groups.none
