@@ -21,6 +21,13 @@ k_t study of docs/pipeline.md):
 For a full-slip or Stribeck variant the interface knob is the velocity band, not ``k_t``
 (``--refinements band``; docs/pipeline.md, "The velocity band of the regularised laws").
 
+``--labels chaotic`` takes every chaotic cell of the map instead of its sample (whether the
+map's chaos survives a stiffer stick and one more mode, docs/pipeline.md, "The map's chaos
+under the model refinements"):
+
+    .venv/bin/python benchmarks/interface_convergence.py --labels chaotic \
+        --refinements k_t modes load_up load_down nudge
+
 ``--refinements`` with no name prints the variant's labels only; ``--config`` with a
 ``grid_file`` of its own runs the cells of another grid (e.g. a 1-D line through a band);
 ``--save PREFIX`` keeps the variant's table and the refinement runs as Parquet files (e.g. to
@@ -70,6 +77,9 @@ def main() -> None:
     ap.add_argument("--cells", type=int, default=0,
                     help="sample this many grid points without a map (0: the map's convergence sample)")
     ap.add_argument("--grid", default="default", help="grid of config/grid.yaml for --cells")
+    ap.add_argument("--labels", nargs="+", metavar="LABEL",
+                    help="every cell of the map (--table) with one of these labels, e.g. chaotic, "
+                         "instead of the map's convergence sample")
     ap.add_argument("--config", default="config/config.yaml")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="model override of the variant (repeatable), e.g. damping=0.01")
@@ -91,6 +101,10 @@ def main() -> None:
     if args.cells:
         sample = grid_cells(cfg, args.grid, args.cells, conv.seed, nm)
         source = f"grid {args.grid} (no map)"
+    elif args.labels:
+        shipped = pd.read_parquet(args.table)
+        sample = shipped[shipped["label"].isin(args.labels)].assign(weight=1.0)
+        source = f"{args.table}, every {' / '.join(args.labels)} cell"
     else:
         sample = sample_points(pd.read_parquet(args.table), conv.sample, conv.seed)
         source = args.table

@@ -66,9 +66,9 @@ import pandas as pd
 from analysis.pipeline.config import Numerics, as_numerics, check_keys
 from analysis.pipeline.grid import canonical_json, point_id
 
-__all__ = ["CONTROLS", "ConvergenceSettings", "LOAD_SHIFT", "NUDGE", "REFINEMENTS", "REGULARISED_LAWS",
-           "SEPARATION_FACTOR", "applies", "convergence_runs", "convergence_summary", "flagged",
-           "grid_refinements", "held_interval", "label_text", "onto_locked", "refine",
+__all__ = ["CENSUS_LABELS", "CONTROLS", "ConvergenceSettings", "LOAD_SHIFT", "NUDGE", "REFINEMENTS",
+           "REGULARISED_LAWS", "SEPARATION_FACTOR", "applies", "convergence_runs", "convergence_summary",
+           "flagged", "grid_refinements", "held_interval", "label_text", "onto_locked", "refine",
            "reuses_reference_runs", "run_metadata", "same_label", "sample_points", "summary_line",
            "title_line", "write_convergence_table"]
 
@@ -106,6 +106,8 @@ CONTROLS = ("load_up", "load_down", "nudge")
 
 #: the least number of sampled points of every label the map has (when it has that many)
 MIN_PER_LABEL = 2
+#: the map labels a census (``convergence.census``) can name: a label's every cell re-run
+CENSUS_LABELS = ("periodic", "quasi-periodic", "chaotic", "undetermined", "unsettled")
 
 #: confidence level of the interval of the fraction of labels that hold (:func:`held_interval`)
 HELD_CONFIDENCE = 0.95
@@ -126,31 +128,47 @@ class ConvergenceSettings:
     seed : seed of the sample's draw.
     refinements : names from :data:`REFINEMENTS`, in the order of the table and figure; each
         grid runs those that are knobs of its law (:func:`grid_refinements`).
+    census : map labels (:data:`CENSUS_LABELS`) whose every cell is re-run, in addition to the
+        sample's other strata (:func:`sample_points`), e.g. ``["chaotic"]``: whether each of
+        the map's chaotic cells keeps its label, not a sample of them.
     """
 
     sample: int = 20
     seed: int = 0
     refinements: tuple[str, ...] = tuple(REFINEMENTS)
+    census: tuple[str, ...] = ()
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any] | None) -> ConvergenceSettings:
         d = dict(d or {})
-        check_keys("convergence", d, ["refinements", "sample", "seed"])
+        check_keys("convergence", d, ["census", "refinements", "sample", "seed"])
         refs = tuple(d.pop("refinements", cls.refinements))
         bad = [r for r in refs if r not in REFINEMENTS]
         if bad:
             raise ValueError(f"convergence.refinements = {bad}; allowed: {', '.join(REFINEMENTS)}")
         if len(set(refs)) != len(refs):
             raise ValueError(f"convergence.refinements = {list(refs)} names a refinement twice")
-        out = cls(refinements=refs, **d)
+        census = tuple(d.pop("census", cls.census))
+        bad = [c for c in census if c not in CENSUS_LABELS]
+        if bad or len(set(census)) != len(census):
+            raise ValueError(f"convergence.census = {list(census)}; allowed: distinct labels of "
+                             f"{', '.join(CENSUS_LABELS)}")
+        out = cls(refinements=refs, census=census, **d)
         if out.sample < 0:
             raise ValueError(f"convergence.sample = {out.sample}; allowed: an integer >= 0")
         return out
 
     @property
     def active(self) -> tuple[str, ...]:
-        """The refinements that run (none when ``sample`` is 0)."""
-        return self.refinements if self.sample > 0 else ()
+        """The refinements that run (none when ``sample`` is 0 and there is no census)."""
+        return self.refinements if self.sample > 0 or self.census else ()
+
+    def as_dict(self) -> dict:
+        """The settings that choose a grid's runs (the refinement is each job's own, so a
+        change of the list does not rerun the refinements that stay), ``census`` only where it
+        names a label: the jobs of a config without one keep their parameters (no rerun)."""
+        census = {"census": list(self.census)} if self.census else {}
+        return {"sample": self.sample, "seed": self.seed} | census
 
 
 # ----------------------------------------------------------------------------- refinements
@@ -289,14 +307,17 @@ def _quotas(counts: pd.Series, n: int) -> dict:
     return q
 
 
-def sample_points(table: pd.DataFrame, n: int, seed: int = 0) -> pd.DataFrame:
+def sample_points(table: pd.DataFrame, n: int, seed: int = 0, census: Sequence[str] = ()) -> pd.DataFrame:
     """A seeded sample of ``n`` rows of a regime table, stratified by ``label``
     (module docstring), with a ``weight`` column (the stratum's map count over its sample
     count), in the table's order.  Deterministic: depends on the table's ``label`` column, the
     points' grid positions (``index_0``, ``index_1``, ... where the table has them, else
     ``point_id``), ``n`` and ``seed`` only.  The grid positions do not change with the results
     version (the ids do), so a new version re-runs the same points wherever its labels are the
-    old ones: its evidence is paired with the old, not a fresh draw."""
+    old ones: its evidence is paired with the old, not a fresh draw.  The labels in ``census``
+    are taken whole (every cell, weight 1) instead of their stratum's draw; the draws of the
+    other labels stay those without the census (the census labels' draws are made and set
+    aside), so a census adds cells to the sample and removes none."""
     from analysis.pipeline.table import index_columns
 
     counts = table["label"].value_counts()
@@ -304,11 +325,14 @@ def sample_points(table: pd.DataFrame, n: int, seed: int = 0) -> pd.DataFrame:
     rng = np.random.default_rng(seed)
     order = table.sort_values(index_columns(table) or ["point_id"], kind="stable")
     chosen = []
-    for lab in sorted(quotas):
+    for lab in sorted(quotas):  # every label of the map (a quota of 0 draws nothing)
         ids = order.loc[order["label"] == lab, "point_id"].to_numpy()
-        k = quotas[lab]
-        if k:
-            chosen += [(pid, counts[lab] / k) for pid in rng.choice(ids, size=k, replace=False)]
+        k = quotas.get(lab, 0)
+        drawn = rng.choice(ids, size=k, replace=False) if k else ids[:0]
+        if lab in census:
+            chosen += [(pid, 1.0) for pid in ids]
+        else:
+            chosen += [(pid, counts[lab] / k) for pid in drawn]
     weight = dict(chosen)
     out = table[table["point_id"].isin(weight)].copy()
     out["weight"] = out["point_id"].map(weight).astype(float)
@@ -353,7 +377,7 @@ def convergence_runs(table: pd.DataFrame, refinement: str, numerics: Numerics | 
     from analysis.pipeline.stages import classify_points, lle_resolution, lyapunov_points, simulate_points
 
     base_nm = as_numerics(numerics)
-    sample = sample_points(table, settings.sample, settings.seed)
+    sample = sample_points(table, settings.sample, settings.seed, settings.census)
     base_support = supported(sample)
     refined = []
     for _, row in sample.iterrows():

@@ -17,9 +17,10 @@ The estimate is a cost model, ``seconds = c * periods / Omega``, per stage and p
 * the continuation check (``numerics.continuation_check``) adds ``n_record`` periods to every
   point (the checks that fail and run again are not in the estimate);
 * the convergence runs (:mod:`analysis.pipeline.convergence`; :func:`convergence_seconds`):
-  per grid and pending refinement, the sample size times the mean estimate of the grid's points
-  with that refinement applied (the sample is drawn from the finished map, so its points are
-  not known before; the store is not consulted; a refinement that stiffens the model,
+  per grid and pending refinement, the sample size (with a census, :func:`convergence_cells`,
+  the expected cells of its labels, :data:`LABEL_SHARE`, added) times the mean estimate of the
+  grid's points with that refinement applied (the sample is drawn from the finished map, so its
+  points are not known before; the store is not consulted; a refinement that stiffens the model,
   ``k_t`` or ``band``, costs its RK4 runs' shorter step through :func:`rk4_stiffness`);
 * the continuation lines (:mod:`analysis.continuation`): both stages for every point of a
   pending line, twice (up- and down-sweep);
@@ -62,8 +63,8 @@ from analysis.pipeline.store import PointStore
 if TYPE_CHECKING:
     from analysis.pipeline.chaos_lifetime import LifetimeSettings
 
-__all__ = ["COST_MODEL_FILE", "Estimate", "LONG_RUN_SECONDS", "convergence_seconds", "estimate_run",
-           "lifetime_seconds", "load_cost_model", "multistability_seconds", "rk4_stiffness"]
+__all__ = ["COST_MODEL_FILE", "Estimate", "LONG_RUN_SECONDS", "convergence_cells", "convergence_seconds",
+           "estimate_run", "lifetime_seconds", "load_cost_model", "multistability_seconds", "rk4_stiffness"]
 
 COST_MODEL_FILE = Path(__file__).with_name("cost_model.yaml")
 #: a run estimated longer than this on the current cores needs ``--config allow_long=True``
@@ -86,6 +87,11 @@ NEW_ATTRACTOR_SHARE = 0.5
 #: lock-up limit, slipping; default grid, chaotic, undetermined and quasi-periodic: 27 of 400
 #: on results version 26's znver3 map, 16 + 6 + 5; chaotic alone 13-16, docs/pipeline.md)
 LIFETIME_CELL_SHARE = 0.0675
+#: expected share of a grid's cells per label, for a census of the convergence runs
+#: (``convergence.census``: every cell of a label; results version 26's znver3 default map:
+#: periodic 292, quasi-periodic 24, chaotic 26, undetermined 53, unsettled 5 of 400)
+LABEL_SHARE = {"periodic": 0.73, "quasi-periodic": 0.06, "chaotic": 0.065, "undetermined": 0.1325,
+               "unsettled": 0.0125}
 
 
 @dataclass(frozen=True)
@@ -213,6 +219,14 @@ def point_seconds(params: Mapping, numerics: Numerics, model: Mapping, stages: I
         scale = 0.5 * rk4_stiffness(params) / ly.step_factor if free == "rk4" else 1.0
         seconds += c * (ly.n_periods + LONG_RECORD_SHARE * extra) * scale / omega
     return seconds
+
+
+def convergence_cells(sample: int, census: Iterable[str], n_points: int) -> int:
+    """Expected cells of one grid's convergence runs: the sample plus the expected cells of the
+    census labels (:data:`LABEL_SHARE` of ``n_points`` each; the census replaces their strata's
+    draw, so this overestimates by those draws), at most ``n_points``."""
+    extra = sum(round(LABEL_SHARE[lab] * n_points) for lab in census)
+    return min(int(sample) + extra, int(n_points))
 
 
 def convergence_seconds(points: Sequence, numerics: Numerics, refinements: Iterable[str], sample: int,

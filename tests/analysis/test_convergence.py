@@ -15,6 +15,7 @@ import yaml
 
 from analysis.pipeline.config import Numerics
 from analysis.pipeline.convergence import (
+    CENSUS_LABELS,
     MAX_MODES,
     NUDGE,
     REFINEMENTS,
@@ -198,6 +199,29 @@ def test_sample_is_stratified_seeded_and_weighted():
     assert len(tight) == 2 and set(tight["label"]) == {"b", "c"}
 
 
+def test_a_census_takes_every_cell_of_its_labels_and_keeps_the_other_draws():
+    """``census``: every cell of the named labels, weight 1 (each stands for itself); the
+    other labels' cells are the sample's without the census, to the point, so that the census
+    only adds cells; the estimate of the map's fraction still sums to the map's cells."""
+    t = _table({"periodic": 165, "quasi-periodic": 169, "chaotic": 21, "undetermined": 38, "unsettled": 7})
+    for seed in (0, 1, 7):
+        plain = sample_points(t, 20, seed=seed)
+        s = sample_points(t, 20, seed=seed, census=["chaotic", "undetermined"])
+        whole = s["label"].isin(["chaotic", "undetermined"])
+        assert set(s.loc[whole, "point_id"]) == set(t.loc[t["label"].isin(["chaotic", "undetermined"]),
+                                                          "point_id"])
+        assert (s.loc[whole, "weight"] == 1.0).all()
+        rest = plain[~plain["label"].isin(["chaotic", "undetermined"])]
+        assert list(s.loc[~whole, "point_id"]) == list(rest["point_id"])
+        assert list(s.loc[~whole, "weight"]) == list(rest["weight"])
+        assert s["weight"].sum() == pytest.approx(len(t))
+        assert list(s.index) == sorted(s.index)
+    # a census of a label the map does not have adds nothing; with no sample, the census alone
+    assert sample_points(t, 20, census=["diverged"]).equals(sample_points(t, 20))
+    only = sample_points(t, 0, census=["unsettled"])
+    assert list(only["label"]) == ["unsettled"] * 7
+
+
 def test_held_interval_is_the_exact_binomial_one():
     """Clopper-Pearson closed forms: all ``n`` held gives ``[(a/2)^(1/n), 1]``, none held
     ``[0, 1 - (a/2)^(1/n)]`` (``a = 0.05``); one of two: ``1 - (1 - p)^2 = a/2`` at the lower
@@ -296,17 +320,27 @@ def test_settings_defaults_are_the_shipped_config_and_bad_values_are_refused():
     assert ConvergenceSettings.from_dict(shipped) == ConvergenceSettings()
     schema = yaml.safe_load((ROOT / "workflow" / "schemas" / "config.schema.yaml").read_text())
     props = schema["properties"]["convergence"]["properties"]
-    assert {k: v["default"] for k, v in props.items()} == {"sample": 20, "seed": 0,
-                                                           "refinements": list(REFINEMENTS)}
-    # every refinement the config can name is one of the module's (and only those)
+    assert {k: v["default"] for k, v in props.items() if "default" in v} == {
+        "sample": 20, "seed": 0, "refinements": list(REFINEMENTS)}
+    # every refinement the config can name is one of the module's (and only those); so are the
+    # census labels, which have no default (a config without them keeps its hash)
     assert props["refinements"]["items"]["enum"] == list(REFINEMENTS)
+    assert props["census"]["items"]["enum"] == list(CENSUS_LABELS) and "default" not in props["census"]
     assert ConvergenceSettings.from_dict({}) == ConvergenceSettings()
     assert schema["$defs"]["model"]["properties"]["n_modes"]["maximum"] == MAX_MODES
     assert ConvergenceSettings.from_dict({"sample": 0}).active == ()
     for bad, match in (({"sample": -1}, "sample"), ({"refinements": ["dt"]}, "refinements"),
-                       ({"refinements": ["k_t", "k_t"]}, "twice"), ({"size": 3}, "unknown")):
+                       ({"refinements": ["k_t", "k_t"]}, "twice"), ({"size": 3}, "unknown"),
+                       ({"census": ["chaos"]}, "convergence.census"),
+                       ({"census": ["chaotic", "chaotic"]}, "distinct")):
         with pytest.raises(ValueError, match=match):
             ConvergenceSettings.from_dict(bad)
+    # a census runs the refinements even without a sample; the jobs' settings name it only
+    # where it is given (the shipped config's jobs keep their parameters)
+    census = ConvergenceSettings.from_dict({"sample": 0, "census": ["chaotic"]})
+    assert census.active == tuple(REFINEMENTS) and census.census == ("chaotic",)
+    assert census.as_dict() == {"sample": 0, "seed": 0, "census": ["chaotic"]}
+    assert ConvergenceSettings().as_dict() == {"sample": 20, "seed": 0}
 
 
 def test_a_linear_point_keeps_its_label_under_every_refinement(tmp_path):

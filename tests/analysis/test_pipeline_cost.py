@@ -16,8 +16,10 @@ from analysis.pipeline.chaos_lifetime import LifetimeSettings
 from analysis.pipeline.config import LyapunovNumerics, Numerics
 from analysis.pipeline.convergence import refine
 from analysis.pipeline.cost import (
+    LABEL_SHARE,
     LONG_RUN_SECONDS,
     Estimate,
+    convergence_cells,
     estimate_run,
     lifetime_seconds,
     load_cost_model,
@@ -109,6 +111,16 @@ def test_the_convergence_runs_are_in_the_estimate(tmp_path):
     assert "3 convergence / continuation / multistability / lifetime runs" in many.summary(2)
     one = estimate_run(pts, Numerics(), tmp_path, convergence=[(pts, ["k_t"], 1)])
     assert "1 convergence / continuation / multistability / lifetime run;" in one.summary(2)
+
+
+def test_a_census_adds_the_expected_cells_of_its_labels():
+    """A census (``convergence.census``) adds each label's expected share of the grid's cells
+    to the sample, never more than the grid; the shares are a map's composition."""
+    assert convergence_cells(20, (), 400) == 20
+    assert convergence_cells(20, ["chaotic"], 400) == 20 + round(LABEL_SHARE["chaotic"] * 400)
+    assert convergence_cells(0, ["chaotic", "quasi-periodic"], 400) == 26 + 24
+    assert convergence_cells(20, list(LABEL_SHARE), 30) == 30
+    assert sum(LABEL_SHARE.values()) == pytest.approx(1.0)
 
 
 def test_an_rk4_run_costs_its_steps():

@@ -187,6 +187,26 @@ def test_each_grid_plans_the_refinements_of_its_law(tmp_path, law, knob):
     assert plan.grid_refinements == {g: want for g in plan.points}
     cfg["convergence"] = {"sample": 0}
     assert build_plan(cfg, SCHEMA.parent).grid_refinements == {g: () for g in plan.points}
+    cfg["convergence"] = {"sample": 0, "census": ["chaotic"]}  # a census alone runs them too
+    assert build_plan(cfg, SCHEMA.parent).grid_refinements == {g: want for g in plan.points}
+
+
+def test_a_census_label_is_checked_and_its_absence_keeps_the_hash():
+    """``convergence.census`` names map labels: another word is refused in one line naming the
+    key; the key has no schema default, so a config without it hashes as before it existed."""
+    from analysis.pipeline.plan import build_plan
+
+    cfg = _config()
+    before = build_plan(cfg, SCHEMA.parent).config_hash
+    assert "census" not in cfg["convergence"]
+    cfg["convergence"]["census"] = ["chaos"]
+    with pytest.raises(WorkflowError) as err:
+        build_plan(cfg, SCHEMA.parent)
+    msg = str(err.value)
+    assert msg.startswith("invalid config: convergence.census.0 = 'chaos' (a label of the map)") and "\n" not in msg, msg
+    assert "chaotic" in msg
+    cfg["convergence"]["census"] = ["chaotic"]
+    assert build_plan(cfg, SCHEMA.parent).config_hash != before
 
 
 def test_a_grid_mixing_laws_of_different_knobs_is_one_line(tmp_path):

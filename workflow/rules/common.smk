@@ -11,7 +11,7 @@ from analysis.paper.runs import RUN_ITEMS as PAPER_RUN_ITEMS
 from analysis.paper.runs import stribeck_constants
 from analysis.paper.tables import paper_config_hash
 from analysis.pipeline.convergence import unchecked_reason
-from analysis.pipeline.cost import estimate_run
+from analysis.pipeline.cost import convergence_cells, estimate_run
 from analysis.pipeline.grid import RESULTS_VERSION
 from analysis.pipeline.outcome import check_targets_made
 from analysis.pipeline.plan import build_plan
@@ -44,8 +44,7 @@ TABLE_CONFIG = PLAN.table_config
 STAGE_METHODS = {"simulate": PLAN.simulation_methods, "lyapunov": PLAN.lyapunov_methods}
 #: the convergence evidence of every map (analysis.pipeline.convergence): refinements that run
 CONVERGENCE = PLAN.convergence
-CONVERGENCE_SETTINGS = {"sample": CONVERGENCE.sample, "seed": CONVERGENCE.seed,
-                        "refinements": list(CONVERGENCE.refinements)}
+CONVERGENCE_SETTINGS = CONVERGENCE.as_dict() | {"refinements": list(CONVERGENCE.refinements)}
 #: per grid, the refinements that run: the knobs of its law among them (k_t: stick-slip; band:
 #: full-slip, stribeck), none when convergence.sample is 0
 GRID_REFINEMENTS = PLAN.grid_refinements
@@ -71,7 +70,7 @@ if workflow.is_main_process:  # not in the per-job processes of a cluster execut
     PENDING_CONVERGENCE = [
         (POINTS[g], [r for r in GRID_REFINEMENTS[g]
                      if not Path(f"results/regimes/{g}/convergence/{r}.parquet").exists()],
-         CONVERGENCE.sample)
+         convergence_cells(CONVERGENCE.sample, CONVERGENCE.census, len(POINTS[g])))
         for g in GRIDS["grids"]
     ]
     PENDING_LINES = [pts for g, lines in PLAN.lines.items() for line, pts in lines.items()

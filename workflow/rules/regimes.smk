@@ -115,9 +115,9 @@ rule convergence_runs:
         table="results/regimes/{grid}/convergence/{refinement}.parquet",
     params:
         numerics=RESULT_NUMERICS,
-        # sample and seed (the refinement is the wildcard): a change of the list does not
-        # rerun the refinements that stay
-        settings={"sample": CONVERGENCE.sample, "seed": CONVERGENCE.seed},
+        # sample, seed and census (the refinement is the wildcard): a change of the list does
+        # not rerun the refinements that stay
+        settings=CONVERGENCE.as_dict(),
         axes=lambda wc: list(GRIDS["grids"][wc.grid]["axes"]),
         store=STORE_ROOT,
     threads: 1
