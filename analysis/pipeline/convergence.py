@@ -50,7 +50,9 @@ map has them), the rest of the sample is shared in proportion to the labels' cou
 points of a label are drawn with a seeded generator.  Each sampled point carries the weight of
 its stratum (points of the label in the map / sampled points of the label), so
 :func:`convergence_summary` gives both the fraction of sampled points whose label holds and the
-map-weighted estimate of the fraction of the map's points.
+map-weighted estimate of the fraction of the map's points.  A census (``convergence.census``)
+takes every cell of the labels it names instead of their strata's draws (weight 1 each), so
+that a label's cells are checked one by one, not estimated from two or three of them.
 """
 
 from __future__ import annotations
@@ -67,8 +69,9 @@ from analysis.pipeline.config import Numerics, as_numerics, check_keys
 from analysis.pipeline.grid import canonical_json, point_id
 
 __all__ = ["CENSUS_LABELS", "CONTROLS", "ConvergenceSettings", "LOAD_SHIFT", "NUDGE", "REFINEMENTS",
-           "REGULARISED_LAWS", "SEPARATION_FACTOR", "applies", "convergence_runs", "convergence_summary",
-           "flagged", "grid_refinements", "held_interval", "label_text", "onto_locked", "refine",
+           "REGULARISED_LAWS", "SEPARATION_FACTOR", "applies", "census_line", "convergence_runs",
+           "convergence_summary", "flagged", "grid_refinements", "held_interval", "label_text",
+           "onto_locked", "refine",
            "reuses_reference_runs", "run_metadata", "same_label", "sample_points", "summary_line",
            "title_line", "write_convergence_table"]
 
@@ -312,9 +315,9 @@ def sample_points(table: pd.DataFrame, n: int, seed: int = 0, census: Sequence[s
     (module docstring), with a ``weight`` column (the stratum's map count over its sample
     count), in the table's order.  Deterministic: depends on the table's ``label`` column, the
     points' grid positions (``index_0``, ``index_1``, ... where the table has them, else
-    ``point_id``), ``n`` and ``seed`` only.  The grid positions do not change with the results
-    version (the ids do), so a new version re-runs the same points wherever its labels are the
-    old ones: its evidence is paired with the old, not a fresh draw.  The labels in ``census``
+    ``point_id``), ``n``, ``seed`` and ``census`` only.  The grid positions do not change with
+    the results version (the ids do), so a new version re-runs the same points wherever its
+    labels are the old ones: its evidence is paired with the old, not a fresh draw.  The labels in ``census``
     are taken whole (every cell, weight 1) instead of their stratum's draw; the draws of the
     other labels stay those without the census (the census labels' draws are made and set
     aside), so a census adds cells to the sample and removes none."""
@@ -327,7 +330,7 @@ def sample_points(table: pd.DataFrame, n: int, seed: int = 0, census: Sequence[s
     chosen = []
     for lab in sorted(quotas):  # every label of the map (a quota of 0 draws nothing)
         ids = order.loc[order["label"] == lab, "point_id"].to_numpy()
-        k = quotas.get(lab, 0)
+        k = quotas[lab]
         drawn = rng.choice(ids, size=k, replace=False) if k else ids[:0]
         if lab in census:
             chosen += [(pid, 1.0) for pid in ids]
@@ -632,6 +635,33 @@ def title_line(summary: pd.DataFrame | None, unchecked: str = "convergence.sampl
         parts.append("moved without a flag: " + ", ".join(whole(f"{r['what']} {int(r['unflagged'])}")
                                                           for _, r in unf.iterrows()))
     return "labels held (convergence.png): " + "; ".join(parts)
+
+
+def census_line(runs: pd.DataFrame, census: Sequence[str]) -> str:
+    """The census of a map's convergence runs (``convergence.census``: every cell of those
+    labels is in ``runs``) in one clause per label, for the map's title and the convergence
+    table's log: ``every chaotic cell (26): k_t x 3 18, modes + 1 20; controls: load x 1.02
+    19, ...; of its 12 robust: k_t x 3 10, modes + 1 11`` (the labels held per refinement and
+    control, among that label's cells only); empty without a census or where the map has no
+    cell of the label."""
+    def held(rows: pd.DataFrame, column: str = "held") -> str:
+        return ", ".join(f"{r['what']} {int(r[column])}".replace(" ", "\u00a0") for _, r in rows.iterrows())
+
+    clauses = []
+    for lab in census:
+        cells = runs[runs["label"] == lab]
+        if cells.empty:
+            continue
+        summary = convergence_summary(cells)
+        control = summary["refinement"].isin(CONTROLS)
+        parts = [f"every {lab} cell ({cells['point_id'].nunique()}): " + held(summary[~control])]
+        if control.any():
+            parts.append("controls: " + held(summary[control]))
+        if len(rob := _rows_with(summary[~control], "n_robust")):
+            n_rob = int(rob["n_robust"].iloc[0])
+            parts.append(f"of its {n_rob} robust: " + held(rob, "held_robust") if n_rob else "none robust")
+        clauses.append("; ".join(parts))
+    return "; ".join(clauses)
 
 
 def run_metadata(grid_name: str, settings: dict, config_hash: str) -> dict:

@@ -21,6 +21,7 @@ from analysis.pipeline.convergence import (
     REFINEMENTS,
     REGULARISED_LAWS,
     ConvergenceSettings,
+    census_line,
     convergence_runs,
     convergence_summary,
     grid_refinements,
@@ -313,6 +314,27 @@ def test_summary_counts_the_labels_that_hold_among_the_robust_points():
     assert title_line(alone).replace("\u00a0", " ") == ("labels held (convergence.png): k_t x 3 1/5; "
                                                        "moved without a flag: k_t x 3 4")
     assert title_line(None, "why") == summary_line(None, "why")
+
+
+def test_the_census_line_counts_each_census_label_apart():
+    """The title's census clause: per census label, its own cells' labels held per refinement
+    and control and among its robust cells; the sample's other labels do not enter it; a label
+    with no robust cell says so; no census, or a label the map lacks, adds nothing."""
+    refs = ["k_t", "modes", "load_up", "load_down", "nudge"]
+    moved = {"k_t": "cdx", "modes": "d", "load_up": "c", "load_down": "e", "nudge": ""}
+    runs = pd.DataFrame([{"point_id": p, "refinement": ref, "weight": 1.0,
+                          "label": "chaotic" if p in "abcde" else "quasi-periodic", "period": None,
+                          "refined_label": "periodic" if p in moved[ref] else "chaotic",
+                          "refined_period": 1 if p in moved[ref] else None, "holds": p not in moved[ref]}
+                         for ref in refs for p in "abcdexy"])
+    line = census_line(runs, ["chaotic"]).replace("\u00a0", " ")
+    # robust: a, b, d (c and e move under a load control); k_t keeps a, b of them, modes a, b
+    assert line == ("every chaotic cell (5): k_t x 3 3, modes + 1 4; controls: load x 1.02 4, "
+                    "load / 1.02 4, load x (1 + 1e-9) 5; of its 3 robust: k_t x 3 2, modes + 1 2")
+    tori = runs[runs["label"] == "quasi-periodic"].assign(
+        holds=lambda d: d["refinement"].isin(["k_t", "modes", "nudge"]))
+    assert census_line(tori, ["quasi-periodic"]).replace("\u00a0", " ").endswith("; none robust")
+    assert census_line(runs, []) == "" and census_line(runs, ["unsettled"]) == ""
 
 
 def test_settings_defaults_are_the_shipped_config_and_bad_values_are_refused():

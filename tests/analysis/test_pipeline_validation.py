@@ -203,7 +203,8 @@ def test_a_census_label_is_checked_and_its_absence_keeps_the_hash():
     with pytest.raises(WorkflowError) as err:
         build_plan(cfg, SCHEMA.parent)
     msg = str(err.value)
-    assert msg.startswith("invalid config: convergence.census.0 = 'chaos' (a label of the map)") and "\n" not in msg, msg
+    assert msg.startswith("invalid config: convergence.census.0 = 'chaos' (a label of the map)"), msg
+    assert "\n" not in msg
     assert "chaotic" in msg
     cfg["convergence"]["census"] = ["chaotic"]
     assert build_plan(cfg, SCHEMA.parent).config_hash != before

@@ -288,6 +288,8 @@ rule regime_figures:
         dpi=config.get("figures", {}).get("dpi", 130),
         # why a grid without convergence runs has none (its map's title says it)
         unchecked=lambda wc: unchecked_reason(CONVERGENCE.active, [p.params for p in POINTS[wc.grid]]),
+        # the labels whose every cell the convergence runs hold (the title counts them apart)
+        census=list(CONVERGENCE.census),
     log:
         "logs/regimes/{grid}/regime_figures.log",
     conda:
