@@ -23,7 +23,7 @@ For a full-slip or Stribeck variant the interface knob is the velocity band, not
 
 ``--labels chaotic`` takes every chaotic cell of the map instead of its sample (whether the
 map's chaos survives a stiffer stick and one more mode, docs/pipeline.md, "The map's chaos
-under the model refinements"):
+and tori under the model refinements"):
 
     .venv/bin/python benchmarks/interface_convergence.py --labels chaotic \
         --refinements k_t modes load_up load_down nudge
