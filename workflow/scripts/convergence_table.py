@@ -17,6 +17,8 @@ runs = pd.concat([pd.read_parquet(f) for f in snakemake.input.runs], ignore_inde
 summary = convergence_summary(runs)
 print(summary.to_string(), file=sys.stderr)
 print(summary_line(summary), file=sys.stderr)  # the maps' titles give its short form (title_line)
-print(census_line(runs, snakemake.params.settings.get("census", [])), file=sys.stderr)
+census = census_line(runs, snakemake.params.settings.get("census", []))
+if census:  # every cell of the census labels, counted apart (convergence.census)
+    print(census, file=sys.stderr)
 write_convergence_table(runs, snakemake.output.table, grid_name=snakemake.wildcards.grid,
                         settings=snakemake.params.settings, config_hash=snakemake.params.config_hash)
