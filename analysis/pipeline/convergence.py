@@ -429,7 +429,13 @@ def convergence_runs(table: pd.DataFrame, refinement: str, numerics: Numerics | 
                            else bool(base["lock_ratio"] < 1.0)),
                 "holds": same_label(base["label"], base["period"], m["label"], m["period"])}
         rows.append(row)
-    out = pd.DataFrame(rows)
+    # the columns named, so that a sample without cells (a census of a label the map lacks,
+    # with no sample) gives an empty table of the same columns
+    columns = ["point_id", "refinement", *axes, "weight", "supported", "label", "period", "lle_T",
+               "lle_lo_T", "lle_hi_T", "refined_label", "refined_period", "refined_lle_T",
+               "refined_lle_lo_T", "refined_lle_hi_T", "refined_reason", "refined_point_id",
+               "refined_stick_fraction", "locked", "holds"]
+    out = pd.DataFrame(rows, columns=columns)
     for c in ("period", "refined_period"):
         out[c] = out[c].astype("Int64")
     out["supported"] = out["supported"].astype("boolean")
@@ -540,7 +546,10 @@ def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
                      "n_robust": n_robust, "held_robust": held_robust,
                      "n_supported": n_sup, "held_supported": held_sup, "locked_moves": locked_moves,
                      "unflagged": unflagged})
-    out = pd.DataFrame(rows)
+    out = pd.DataFrame(rows, columns=["refinement", "what", "n", "held", "fraction", "fraction_lo",
+                                      "fraction_hi", "map_fraction", "contradicted", "flips",
+                                      "n_robust", "held_robust", "n_supported", "held_supported",
+                                      "locked_moves", "unflagged"])
     for c in ("n_robust", "held_robust", "n_supported", "held_supported", "locked_moves", "unflagged"):
         out[c] = out[c].astype("Int64")
     return out

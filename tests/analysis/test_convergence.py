@@ -337,6 +337,19 @@ def test_the_census_line_counts_each_census_label_apart():
     assert census_line(runs, []) == "" and census_line(runs, ["unsettled"]) == ""
 
 
+def test_a_census_without_cells_gives_empty_tables_of_the_same_columns(tmp_path):
+    """No sample and a census of a label the map lacks: no cell to re-run, and an empty runs
+    table and summary of the usual columns (not a crash), which the title reads as unchecked."""
+    table = pd.DataFrame([{"point_id": "p", "label": "periodic", "params_json": json.dumps(POINT),
+                           "Omega": 2.5, "f0_rel": 0.3}])
+    runs = convergence_runs(table, "k_t", Numerics(), ConvergenceSettings(sample=0, census=("chaotic",)),
+                            str(tmp_path), axes=["Omega", "f0_rel"])
+    assert runs.empty and {"point_id", "Omega", "label", "refined_label", "holds"} <= set(runs.columns)
+    summary = convergence_summary(runs)
+    assert summary.empty and {"held", "n_robust", "unflagged"} <= set(summary.columns)
+    assert title_line(summary, "why") == "labels not checked under refinement (why)"
+
+
 def test_settings_defaults_are_the_shipped_config_and_bad_values_are_refused():
     shipped = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())["convergence"]
     assert ConvergenceSettings.from_dict(shipped) == ConvergenceSettings()

@@ -14,7 +14,10 @@ from analysis.pipeline.stages import lle_resolution
 table = pd.read_parquet(snakemake.input.table)
 grid, name, dpi = snakemake.params.grid, snakemake.wildcards.grid, snakemake.params.dpi
 runs = [pd.read_parquet(f) for f in snakemake.input.convergence]
-evidence = title_line(convergence_summary(runs[0]) if runs else None, snakemake.params.unchecked)
+# runs without a cell: no sample and no cell of the census labels (convergence.census)
+unchecked = ("convergence.sample = 0, no cell of the census labels" if runs
+             else snakemake.params.unchecked)
+evidence = title_line(convergence_summary(runs[0]) if runs else None, unchecked)
 census = census_line(runs[0], snakemake.params.census) if runs else ""
 evidence += f"; {census}" if census else ""
 attractors = pd.read_parquet(snakemake.input.attractors[0]) if snakemake.input.attractors else None
