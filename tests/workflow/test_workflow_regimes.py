@@ -130,6 +130,32 @@ def test_convergence_step_ships_with_the_map(first_run):
     assert json.loads(meta)["settings"]["refinements"] == CONVERGENCE["refinements"]
 
 
+def test_a_census_reruns_every_cell_of_its_labels(first_run):
+    """``convergence.census`` (here with no sample): the convergence runs hold every cell of the
+    census labels and no other, and a census of a label the map lacks gives an empty table of
+    the usual columns, with the map's figures still made (their title says why nothing ran)."""
+    cfg_path = first_run / "config.yaml"
+    shipped = cfg_path.read_text()
+    table = pd.read_parquet(first_run / "results" / "regimes" / "tiny.parquet")
+    present = sorted(set(table["label"]))
+    absent = next(lab for lab in ("chaotic", "unsettled", "undetermined", "quasi-periodic")
+                  if lab not in present)
+    targets = ("results/regimes/tiny/convergence.parquet", "results/regimes/tiny/regimes.png")
+    try:
+        for census, cells in ((present[:1], int((table["label"] == present[0]).sum())), ([absent], 0)):
+            cfg = yaml.safe_load(shipped)
+            cfg["convergence"] = {"sample": 0, "seed": 0, "census": census, "refinements": ["step"]}
+            cfg_path.write_text(yaml.safe_dump(cfg))
+            res = snakemake(first_run, *targets)
+            assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
+            runs = pd.read_parquet(first_run / targets[0])
+            assert len(runs) == cells and set(runs["label"]) <= set(census)
+            assert {"point_id", "refinement", "label", "refined_label", "holds"} <= set(runs.columns)
+            assert set(runs["point_id"]) == set(table.loc[table["label"].isin(census), "point_id"])
+    finally:
+        cfg_path.write_text(shipped)  # restore for the other tests
+
+
 def test_multistability_step_ships_with_the_map(first_run):
     """Every cell of the map run from the other starts: rows per cell (its attractors, then the
     starts that reached none), in the map's order; the row holding the start from rest has the
