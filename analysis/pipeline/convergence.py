@@ -628,22 +628,24 @@ def title_line(summary: pd.DataFrame | None, unchecked: str = "convergence.sampl
     control = summary["refinement"].isin(CONTROLS)
     refs, ctls = summary[~control], summary[control]
 
-    def whole(entry: str) -> str:
-        return entry.replace(" ", "\u00a0")
-
     def held(rows: pd.DataFrame) -> str:
-        return ", ".join(whole(f"{r['what']} {r['held']}/{r['n']}") for _, r in rows.iterrows())
+        return ", ".join(f"{r['what']} {r['held']}/{r['n']}".replace(" ", "\u00a0")
+                         for _, r in rows.iterrows())
 
     parts = [held(refs)] if len(refs) else []
     if len(ctls):
         parts.append("controls: " + held(ctls))
     if len(rob := _rows_with(refs, "n_robust")):
-        parts.append(f"of the {int(rob['n_robust'].iloc[0])} robust: "
-                     + ", ".join(whole(f"{r['what']} {int(r['held_robust'])}") for _, r in rob.iterrows()))
+        parts.append(f"of the {int(rob['n_robust'].iloc[0])} robust: " + _counts(rob, "held_robust"))
     if len(unf := _rows_with(refs, "unflagged", positive=True)):
-        parts.append("moved without a flag: " + ", ".join(whole(f"{r['what']} {int(r['unflagged'])}")
-                                                          for _, r in unf.iterrows()))
+        parts.append("moved without a flag: " + _counts(unf, "unflagged"))
     return "labels held (convergence.png): " + "; ".join(parts)
+
+
+def _counts(rows: pd.DataFrame, column: str) -> str:
+    """``what count, ...`` of a summary's ``rows`` (``column``: the count), each entry's words
+    joined by no-break spaces (U+00A0), so that a wrapped title keeps an entry whole."""
+    return ", ".join(f"{r['what']} {int(r[column])}".replace(" ", "\u00a0") for _, r in rows.iterrows())
 
 
 def census_line(runs: pd.DataFrame, census: Sequence[str]) -> str:
@@ -653,9 +655,6 @@ def census_line(runs: pd.DataFrame, census: Sequence[str]) -> str:
     19, ...; of its 12 robust: k_t x 3 10, modes + 1 11`` (the labels held per refinement and
     control, among that label's cells only); empty without a census or where the map has no
     cell of the label."""
-    def held(rows: pd.DataFrame, column: str = "held") -> str:
-        return ", ".join(f"{r['what']} {int(r[column])}".replace(" ", "\u00a0") for _, r in rows.iterrows())
-
     clauses = []
     for lab in census:
         cells = runs[runs["label"] == lab]
@@ -663,12 +662,12 @@ def census_line(runs: pd.DataFrame, census: Sequence[str]) -> str:
             continue
         summary = convergence_summary(cells)
         control = summary["refinement"].isin(CONTROLS)
-        parts = [f"every {lab} cell ({cells['point_id'].nunique()}): " + held(summary[~control])]
+        parts = [f"every {lab} cell ({cells['point_id'].nunique()}): " + _counts(summary[~control], "held")]
         if control.any():
-            parts.append("controls: " + held(summary[control]))
+            parts.append("controls: " + _counts(summary[control], "held"))
         if len(rob := _rows_with(summary[~control], "n_robust")):
             n_rob = int(rob["n_robust"].iloc[0])
-            parts.append(f"of its {n_rob} robust: " + held(rob, "held_robust") if n_rob else "none robust")
+            parts.append(f"of its {n_rob} robust: " + _counts(rob, "held_robust") if n_rob else "none robust")
         clauses.append("; ".join(parts))
     return "; ".join(clauses)
 
