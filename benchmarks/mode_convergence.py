@@ -1,0 +1,137 @@
+"""Is the map's three-mode model converged in the mode count where its response is regular?
+
+The convergence evidence's ``modes + 1`` row says whether a cell's *label* holds with one more
+mode (docs/pipeline.md); this measures how far the *orbit* moves as modes are added, at the
+cells where there is an orbit to compare: period-1 cells of a finished map that slip in their
+record and whose label every grid neighbour shares (``neighbours_same == n_neighbours``: no
+2 % load change is expected to move them, docs/pipeline.md "Neighbour support").  Stuck cells
+are left out: their motion is the linear forced response of the bonded beam plus its undamped
+free vibration, whose truncation error is the classical modal one.
+
+Each cell runs from rest with ``N`` modes for every ``N`` of ``--modes`` at the map's *physical*
+load and frequency (the row's ``f0`` and ``omega``: ``f_cr`` and ``omega_1`` change with ``N``,
+so fixed ``f0_rel`` and ``Omega`` would be other physical points), ``--transient`` periods on
+``expo``, then ``--record`` periods recorded, the last one sampled 64 times.  Against the
+largest ``N`` it prints, per cell and ``N``:
+
+* ``wave``: the largest difference of the tip deflection ``w`` over the last period, relative
+  to its peak-to-peak amplitude (the whole waveform, phase included);
+* ``amp``: the relative difference of that amplitude;
+* ``diss``: of the friction dissipation per forcing period (the record's mean);
+* ``stick``: the fraction of interface points stuck (absolute difference);
+* ``spread``: the spread of ``w`` over the record's Poincare samples relative to the
+  amplitude (near 0: the ``N``-mode run is on a period-1 orbit too).
+
+and a summary over the cells (median and largest).
+
+    .venv/bin/python benchmarks/mode_convergence.py --table results/regimes/default.parquet
+    .venv/bin/python benchmarks/mode_convergence.py --table ... --cells 4 --modes 3 4 6
+
+Results: docs/pipeline.md, "The mode count of the regular orbits".
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+import pandas as pd
+
+from beamsim.simulate import simulate_batch
+
+SAMPLES = 64  # dense samples of the last recorded period
+
+
+def regular_cells(table: pd.DataFrame, n: int, seed: int, max_settle: int) -> pd.DataFrame:
+    """``n`` period-1 cells (seeded draw, sorted by frequency and load) that slip in their
+    record, whose label every grid neighbour shares and whose map run settled within
+    ``max_settle`` transient periods."""
+    ok = ((table["label"] == "periodic") & (table["period"] == 1) & (table["stick_fraction"] < 1.0)
+          & (table["n_neighbours"] > 0) & (table["neighbours_same"] == table["n_neighbours"])
+          & (table["n_transient_used"] <= max_settle))
+    cells = table[ok]
+    if len(cells) == 0:
+        raise SystemExit("no slipping period-1 cell whose label every neighbour shares in the table")
+    cells = cells.sample(min(n, len(cells)), random_state=seed)
+    return cells.sort_values(["Omega", "f0_rel"])
+
+
+def run_cells(cells: pd.DataFrame, modes: list[int], transient: int, record: int,
+              threads: int) -> list[list[dict]]:
+    """Per cell, per mode count (one batch per ``N``: a batch has one model size), at the map
+    rows' physical load and frequency."""
+    out: list[list[dict]] = [[] for _ in range(len(cells))]
+    for n in modes:
+        t0 = time.perf_counter()
+        pts = [{k: v for k, v in json.loads(row["params_json"]).items() if k not in ("f0_rel", "Omega")}
+               | {"n_modes": n, "f0": float(row["f0"]), "omega": float(row["omega"])}
+               for _, row in cells.iterrows()]
+        res = simulate_batch(pts, n_transient=transient, n_record=record, method="expo",
+                             dense_per_period=SAMPLES, n_threads=threads)
+        for i, r in enumerate(res):
+            w = np.asarray(r.dense)[-(SAMPLES + 1):, 0]  # tip deflection over the last period
+            amp = float(np.ptp(w))
+            out[i].append({"N": n, "w": w, "amp": amp, "diss": float(np.mean(r.diss_per_cycle)),
+                           "stick": float(r.stick_fraction),
+                           "spread": float(np.ptp(np.asarray(r.poincare_tip)[:, 0])) / amp,
+                           "f_cr": float(r.f_cr), "diverged": bool(r.diverged)})
+        print(f"  N = {n}: {time.perf_counter() - t0:.0f} s", flush=True)
+    return out
+
+
+def compare(rows: list[dict]) -> list[dict]:
+    """Each mode count against the largest."""
+    ref = rows[-1]
+    return [{"N": r["N"], "wave": float(np.abs(r["w"] - ref["w"]).max()) / ref["amp"],
+             "amp": r["amp"] / ref["amp"] - 1.0, "diss": r["diss"] / ref["diss"] - 1.0,
+             "stick": r["stick"] - ref["stick"], "spread": r["spread"]} for r in rows]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--table", default="results/regimes/default.parquet", help="a finished map")
+    ap.add_argument("--cells", type=int, default=8)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--modes", type=int, nargs="+", default=[2, 3, 4, 5, 6, 7])
+    ap.add_argument("--max-settle", type=int, default=1000,
+                    help="only cells whose map run settled within this many transient periods")
+    ap.add_argument("--transient", type=int, default=None,
+                    help="transient periods (default: the cells' largest settling time + 400)")
+    ap.add_argument("--record", type=int, default=32)
+    ap.add_argument("--threads", type=int, default=2)
+    args = ap.parse_args()
+    modes = sorted(set(args.modes))
+    table = pd.read_parquet(args.table)
+    cells = regular_cells(table, args.cells, args.seed, args.max_settle)
+    transient = args.transient or int(cells["n_transient_used"].max()) + 400
+    print(f"{len(cells)} slipping period-1 cells whose neighbours share the label "
+          f"(map: {int((table['label'] == 'periodic').sum())} periodic of {len(table)}); "
+          f"N = {modes} against N = {modes[-1]}, {transient} + {args.record} periods from rest "
+          f"(the map's runs settled after {int(cells['n_transient_used'].min())}-"
+          f"{int(cells['n_transient_used'].max())})")
+    allrows = []
+    runs = run_cells(cells, modes, transient, args.record, args.threads)
+    for (_, row), rows in zip(cells.iterrows(), runs):
+        print(f"Omega {row['Omega']:.3f}, f0_rel {row['f0_rel']:.3f} (map: stick "
+              f"{row['stick_fraction']:.2f}; f_cr of N = {modes[0]}..{modes[-1]}: "
+              f"{rows[0]['f_cr']:.4g}..{rows[-1]['f_cr']:.4g})")
+        if any(r["diverged"] for r in rows):
+            print("  diverged at N =", [r["N"] for r in rows if r["diverged"]])
+            continue
+        for c in compare(rows):
+            print(f"  N={c['N']}: wave {c['wave']:.4f}  amp {c['amp']:+.4f}  diss {c['diss']:+.4f}  "
+                  f"stick {c['stick']:+.3f}  spread {c['spread']:.1e}")
+            allrows.append(c)
+    df = pd.DataFrame(allrows)
+    print(f"summary over the cells, against N = {modes[-1]} (median / largest of |value|):")
+    for n, g in df[df["N"] < modes[-1]].groupby("N"):
+        parts = [f"{k} {g[k].abs().median():.4f} / {g[k].abs().max():.4f}"
+                 for k in ("wave", "amp", "diss", "stick")]
+        settled = int((g["spread"] <= 1e-2).sum())
+        print(f"  N={n}: " + ", ".join(parts) + f"; spread <= 1e-2 at {settled}/{len(g)}")
+
+
+if __name__ == "__main__":
+    main()
