@@ -1,18 +1,20 @@
-"""Is the map's three-mode model converged in the mode count where its response is regular?
+"""Do the map's regular orbits converge in the mode count and in the stick stiffness?
 
-The convergence evidence's ``modes + 1`` row says whether a cell's *label* holds with one more
-mode (docs/pipeline.md); this measures how far the *orbit* moves as modes are added, at the
-cells where there is an orbit to compare: period-1 cells of a finished map that slip in their
-record and whose label every grid neighbour shares (``neighbours_same == n_neighbours``: no
-2 % load change is expected to move them, docs/pipeline.md "Neighbour support").  Stuck cells
-are left out: their motion is the linear forced response of the bonded beam plus its undamped
-free vibration, whose truncation error is the classical modal one.
+The convergence evidence's ``modes + 1`` and ``k_t x 3`` rows say whether a cell's *label*
+holds under one refinement (docs/pipeline.md); this measures how far the *orbit* moves along a
+ladder of values of one knob, at the cells where there is an orbit to compare: period-1 cells
+of a finished map that slip in their record, whose label every grid neighbour shares
+(``neighbours_same == n_neighbours``: docs/pipeline.md "Neighbour support") and whose map run
+settled within ``--max-settle`` transient periods.  Stuck cells are left out: their motion is
+the linear forced response of the bonded beam plus its undamped free vibration.
 
-Each cell runs from rest with ``N`` modes for every ``N`` of ``--modes`` at the map's *physical*
-load and frequency (the row's ``f0`` and ``omega``: ``f_cr`` and ``omega_1`` change with ``N``,
-so fixed ``f0_rel`` and ``Omega`` would be other physical points), ``--transient`` periods on
-``expo``, then ``--record`` periods recorded, the last one sampled 64 times.  Against the
-largest ``N`` it prints, per cell and ``N``:
+Each cell runs from rest at every value of ``--knob`` (``n_modes``: 2 ... 7 by default;
+``k_t``: 10 ... 1000) at the map's *physical* load and frequency (the row's ``f0`` and
+``omega``: ``f_cr`` and ``omega_1`` change with either knob, so fixed ``f0_rel`` and ``Omega``
+would be other physical points), every other parameter the map's, on ``expo`` (exact between
+switches, so a stiffer stick costs switches, not steps) for ``--transient`` periods, then
+``--record`` periods recorded, the last one sampled 64 times.  Against the last value it
+prints, per cell and value:
 
 * ``wave``: the largest difference of the tip deflection ``w`` over the last period, relative
   to its peak-to-peak amplitude (the whole waveform, phase included);
@@ -20,14 +22,15 @@ largest ``N`` it prints, per cell and ``N``:
 * ``diss``: of the friction dissipation per forcing period (the record's mean);
 * ``stick``: the fraction of interface points stuck (absolute difference);
 * ``spread``: the spread of ``w`` over the record's Poincare samples relative to the
-  amplitude (near 0: the ``N``-mode run is on a period-1 orbit too).
+  amplitude (near 0: the run is on a period-1 orbit too).
 
 and a summary over the cells (median and largest).
 
-    .venv/bin/python benchmarks/mode_convergence.py --table results/regimes/default.parquet
-    .venv/bin/python benchmarks/mode_convergence.py --table ... --cells 4 --modes 3 4 6
+    .venv/bin/python benchmarks/orbit_convergence.py --table results/regimes/default.parquet
+    .venv/bin/python benchmarks/orbit_convergence.py --table ... --knob k_t --cells 16
+    .venv/bin/python benchmarks/orbit_convergence.py --table ... --knob n_modes --values 3 4 6
 
-Results: docs/pipeline.md, "The mode count of the regular orbits".
+Results: docs/pipeline.md, "The regular orbits under more modes and a stiffer stick".
 """
 
 from __future__ import annotations
@@ -58,34 +61,39 @@ def regular_cells(table: pd.DataFrame, n: int, seed: int, max_settle: int) -> pd
     return cells.sort_values(["Omega", "f0_rel"])
 
 
-def run_cells(cells: pd.DataFrame, modes: list[int], transient: int, record: int,
+#: the knobs and their default ladders (the reference last)
+KNOBS = {"n_modes": (2, 3, 4, 5, 6, 7), "k_t": (10.0, 30.0, 100.0, 300.0, 1000.0)}
+
+
+def run_cells(cells: pd.DataFrame, knob: str, values: list, transient: int, record: int,
               threads: int) -> list[list[dict]]:
-    """Per cell, per mode count (one batch per ``N``: a batch has one model size), at the map
-    rows' physical load and frequency."""
+    """Per cell, per value of ``knob`` (one batch per value: a batch has one model size), at
+    the map rows' physical load and frequency."""
     out: list[list[dict]] = [[] for _ in range(len(cells))]
-    for n in modes:
+    for value in values:
         t0 = time.perf_counter()
         pts = [{k: v for k, v in json.loads(row["params_json"]).items() if k not in ("f0_rel", "Omega")}
-               | {"n_modes": n, "f0": float(row["f0"]), "omega": float(row["omega"])}
+               | {knob: value, "f0": float(row["f0"]), "omega": float(row["omega"])}
                for _, row in cells.iterrows()]
         res = simulate_batch(pts, n_transient=transient, n_record=record, method="expo",
                              dense_per_period=SAMPLES, n_threads=threads)
         for i, r in enumerate(res):
             w = np.asarray(r.dense)[-(SAMPLES + 1):, 0]  # tip deflection over the last period
             amp = float(np.ptp(w))
-            out[i].append({"N": n, "w": w, "amp": amp, "diss": float(np.mean(r.diss_per_cycle)),
+            out[i].append({"value": value, "w": w, "amp": amp, "diss": float(np.mean(r.diss_per_cycle)),
                            "stick": float(r.stick_fraction),
                            "spread": float(np.ptp(np.asarray(r.poincare_tip)[:, 0])) / amp,
                            "f_cr": float(r.f_cr), "diverged": bool(r.diverged)})
-        print(f"  N = {n}: {time.perf_counter() - t0:.0f} s", flush=True)
+        print(f"  {knob} = {value:g}: {time.perf_counter() - t0:.0f} s", flush=True)
     return out
 
 
 def compare(rows: list[dict]) -> list[dict]:
-    """Each mode count against the largest."""
+    """Each value against the last (``diss`` NaN where the reference run no longer slips)."""
     ref = rows[-1]
-    return [{"N": r["N"], "wave": float(np.abs(r["w"] - ref["w"]).max()) / ref["amp"],
-             "amp": r["amp"] / ref["amp"] - 1.0, "diss": r["diss"] / ref["diss"] - 1.0,
+    return [{"value": r["value"], "wave": float(np.abs(r["w"] - ref["w"]).max()) / ref["amp"],
+             "amp": r["amp"] / ref["amp"] - 1.0,
+             "diss": r["diss"] / ref["diss"] - 1.0 if ref["diss"] > 0 else np.nan,
              "stick": r["stick"] - ref["stick"], "spread": r["spread"]} for r in rows]
 
 
@@ -94,7 +102,9 @@ def main() -> None:
     ap.add_argument("--table", default="results/regimes/default.parquet", help="a finished map")
     ap.add_argument("--cells", type=int, default=8)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--modes", type=int, nargs="+", default=[2, 3, 4, 5, 6, 7])
+    ap.add_argument("--knob", choices=sorted(KNOBS), default="n_modes")
+    ap.add_argument("--values", type=float, nargs="+", default=None,
+                    help="the ladder, the reference last (default: the knob's, see KNOBS)")
     ap.add_argument("--max-settle", type=int, default=1000,
                     help="only cells whose map run settled within this many transient periods")
     ap.add_argument("--transient", type=int, default=None,
@@ -102,35 +112,38 @@ def main() -> None:
     ap.add_argument("--record", type=int, default=32)
     ap.add_argument("--threads", type=int, default=2)
     args = ap.parse_args()
-    modes = sorted(set(args.modes))
+    values = sorted(set(args.values or KNOBS[args.knob]))
+    if args.knob == "n_modes":
+        values = [int(v) for v in values]
+    name = args.knob
     table = pd.read_parquet(args.table)
     cells = regular_cells(table, args.cells, args.seed, args.max_settle)
     transient = args.transient or int(cells["n_transient_used"].max()) + 400
     print(f"{len(cells)} slipping period-1 cells whose neighbours share the label "
           f"(map: {int((table['label'] == 'periodic').sum())} periodic of {len(table)}); "
-          f"N = {modes} against N = {modes[-1]}, {transient} + {args.record} periods from rest "
+          f"{name} = {values} against {values[-1]:g}, {transient} + {args.record} periods from rest "
           f"(the map's runs settled after {int(cells['n_transient_used'].min())}-"
           f"{int(cells['n_transient_used'].max())})")
     allrows = []
-    runs = run_cells(cells, modes, transient, args.record, args.threads)
+    runs = run_cells(cells, name, values, transient, args.record, args.threads)
     for (_, row), rows in zip(cells.iterrows(), runs):
         print(f"Omega {row['Omega']:.3f}, f0_rel {row['f0_rel']:.3f} (map: stick "
-              f"{row['stick_fraction']:.2f}; f_cr of N = {modes[0]}..{modes[-1]}: "
+              f"{row['stick_fraction']:.2f}; f_cr at {name} = {values[0]:g}..{values[-1]:g}: "
               f"{rows[0]['f_cr']:.4g}..{rows[-1]['f_cr']:.4g})")
         if any(r["diverged"] for r in rows):
-            print("  diverged at N =", [r["N"] for r in rows if r["diverged"]])
+            print(f"  diverged at {name} =", [r["value"] for r in rows if r["diverged"]])
             continue
         for c in compare(rows):
-            print(f"  N={c['N']}: wave {c['wave']:.4f}  amp {c['amp']:+.4f}  diss {c['diss']:+.4f}  "
-                  f"stick {c['stick']:+.3f}  spread {c['spread']:.1e}")
+            print(f"  {name}={c['value']:g}: wave {c['wave']:.4f}  amp {c['amp']:+.4f}  "
+                  f"diss {c['diss']:+.4f}  stick {c['stick']:+.3f}  spread {c['spread']:.1e}")
             allrows.append(c)
     df = pd.DataFrame(allrows)
-    print(f"summary over the cells, against N = {modes[-1]} (median / largest of |value|):")
-    for n, g in df[df["N"] < modes[-1]].groupby("N"):
+    print(f"summary over the cells, against {name} = {values[-1]:g} (median / largest of |value|):")
+    for v, g in df[df["value"] < values[-1]].groupby("value"):
         parts = [f"{k} {g[k].abs().median():.4f} / {g[k].abs().max():.4f}"
                  for k in ("wave", "amp", "diss", "stick")]
         settled = int((g["spread"] <= 1e-2).sum())
-        print(f"  N={n}: " + ", ".join(parts) + f"; spread <= 1e-2 at {settled}/{len(g)}")
+        print(f"  {name}={v:g}: " + ", ".join(parts) + f"; spread <= 1e-2 at {settled}/{len(g)}")
 
 
 if __name__ == "__main__":
