@@ -20,7 +20,8 @@ prints, per cell and value:
   to its peak-to-peak amplitude (the whole waveform, phase included);
 * ``amp``: the relative difference of that amplitude;
 * ``diss``: of the friction dissipation per forcing period (the record's mean);
-* ``stick``: the fraction of interface points stuck (absolute difference);
+* ``stick``: the fraction of the interface stuck over the record (``stick_fraction``: quadrature-
+  weighted, time-averaged; absolute difference);
 * ``spread``: the spread of ``w`` over the record's Poincare samples relative to the
   amplitude (near 0: the run is on a period-1 orbit too).
 
