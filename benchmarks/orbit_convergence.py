@@ -1,4 +1,5 @@
-"""Do the map's regular orbits converge in the mode count and in the stick stiffness?
+"""Do the map's regular orbits converge in the mode count, the stick stiffness and the
+interface points?
 
 The convergence evidence's ``modes + 1`` and ``k_t x 3`` rows say whether a cell's *label*
 holds under one refinement (docs/pipeline.md); this measures how far the *orbit* moves along a
@@ -9,7 +10,8 @@ settled within ``--max-settle`` transient periods.  Stuck cells are left out: th
 the linear forced response of the bonded beam plus its undamped free vibration.
 
 Each cell runs from rest at every value of ``--knob`` (``n_modes``: 2 ... 7 by default;
-``k_t``: 10 ... 1000) at the map's *physical* load and frequency (the row's ``f0`` and
+``k_t``: 10 ... 1000; ``n_quad``, the interface points, which otherwise follow the mode count:
+8 ... 32) at the map's *physical* load and frequency (the row's ``f0`` and
 ``omega``: ``f_cr`` and ``omega_1`` change with either knob, so fixed ``f0_rel`` and ``Omega``
 would be other physical points), every other parameter the map's, on ``expo`` (exact between
 switches, so a stiffer stick costs switches, not steps) for ``--transient`` periods, then
@@ -63,7 +65,8 @@ def regular_cells(table: pd.DataFrame, n: int, seed: int, max_settle: int) -> pd
 
 
 #: the knobs and their default ladders (the reference last)
-KNOBS = {"n_modes": (2, 3, 4, 5, 6, 7), "k_t": (10.0, 30.0, 100.0, 300.0, 1000.0)}
+KNOBS = {"n_modes": (2, 3, 4, 5, 6, 7), "k_t": (10.0, 30.0, 100.0, 300.0, 1000.0),
+         "n_quad": (8, 12, 16, 24, 32)}
 
 
 def run_cells(cells: pd.DataFrame, knob: str, values: list, transient: int, record: int,
@@ -114,7 +117,7 @@ def main() -> None:
     ap.add_argument("--threads", type=int, default=2)
     args = ap.parse_args()
     values = sorted(set(args.values or KNOBS[args.knob]))
-    if args.knob == "n_modes":
+    if args.knob in ("n_modes", "n_quad"):
         values = [int(v) for v in values]
     name = args.knob
     table = pd.read_parquet(args.table)
