@@ -32,6 +32,7 @@ and a summary over the cells (median and largest).
     .venv/bin/python benchmarks/orbit_convergence.py --table results/regimes/default.parquet
     .venv/bin/python benchmarks/orbit_convergence.py --table ... --knob k_t --cells 16
     .venv/bin/python benchmarks/orbit_convergence.py --table ... --knob n_modes --values 3 4 6
+    .venv/bin/python benchmarks/orbit_convergence.py --table ... --knob n_modes --set n_quad=28
 
 Results: docs/pipeline.md, "The regular orbits under more modes and a stiffer stick".
 """
@@ -44,6 +45,7 @@ import time
 
 import numpy as np
 import pandas as pd
+import yaml
 
 from beamsim.simulate import simulate_batch
 
@@ -70,14 +72,15 @@ KNOBS = {"n_modes": (2, 3, 4, 5, 6, 7), "k_t": (10.0, 30.0, 100.0, 300.0, 1000.0
 
 
 def run_cells(cells: pd.DataFrame, knob: str, values: list, transient: int, record: int,
-              threads: int) -> list[list[dict]]:
+              threads: int, fixed: dict | None = None) -> list[list[dict]]:
     """Per cell, per value of ``knob`` (one batch per value: a batch has one model size), at
-    the map rows' physical load and frequency."""
+    the map rows' physical load and frequency, with the parameters ``fixed`` set at every
+    value."""
     out: list[list[dict]] = [[] for _ in range(len(cells))]
     for value in values:
         t0 = time.perf_counter()
         pts = [{k: v for k, v in json.loads(row["params_json"]).items() if k not in ("f0_rel", "Omega")}
-               | {knob: value, "f0": float(row["f0"]), "omega": float(row["omega"])}
+               | (fixed or {}) | {knob: value, "f0": float(row["f0"]), "omega": float(row["omega"])}
                for _, row in cells.iterrows()]
         res = simulate_batch(pts, n_transient=transient, n_record=record, method="expo",
                              dense_per_period=SAMPLES, n_threads=threads)
@@ -114,8 +117,11 @@ def main() -> None:
     ap.add_argument("--transient", type=int, default=None,
                     help="transient periods (default: the cells' largest settling time + 400)")
     ap.add_argument("--record", type=int, default=32)
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="a model parameter fixed at every value (repeatable), e.g. n_quad=28")
     ap.add_argument("--threads", type=int, default=2)
     args = ap.parse_args()
+    fixed = {k: yaml.safe_load(v) for k, v in (s.split("=", 1) for s in args.set)}
     values = sorted(set(args.values or KNOBS[args.knob]))
     if args.knob in ("n_modes", "n_quad"):
         values = [int(v) for v in values]
@@ -125,11 +131,12 @@ def main() -> None:
     transient = args.transient or int(cells["n_transient_used"].max()) + 400
     print(f"{len(cells)} slipping period-1 cells whose neighbours share the label "
           f"(map: {int((table['label'] == 'periodic').sum())} periodic of {len(table)}); "
-          f"{name} = {values} against {values[-1]:g}, {transient} + {args.record} periods from rest "
+          f"{name} = {values} against {values[-1]:g}{', with ' + str(fixed) if fixed else ''}, "
+          f"{transient} + {args.record} periods from rest "
           f"(the map's runs settled after {int(cells['n_transient_used'].min())}-"
           f"{int(cells['n_transient_used'].max())})")
     allrows = []
-    runs = run_cells(cells, name, values, transient, args.record, args.threads)
+    runs = run_cells(cells, name, values, transient, args.record, args.threads, fixed)
     for (_, row), rows in zip(cells.iterrows(), runs):
         print(f"Omega {row['Omega']:.3f}, f0_rel {row['f0_rel']:.3f} (map: stick "
               f"{row['stick_fraction']:.2f}; f_cr at {name} = {values[0]:g}..{values[-1]:g}: "
