@@ -102,8 +102,8 @@ def main() -> None:
         sample = grid_cells(cfg, args.grid, args.cells, conv.seed, nm)
         source = f"grid {args.grid} (no map)"
     elif args.labels:
-        shipped = pd.read_parquet(args.table)
-        sample = shipped[shipped["label"].isin(args.labels)].assign(weight=1.0)
+        # the pipeline's census selection (convergence.census) without the sample's draws
+        sample = sample_points(pd.read_parquet(args.table), 0, conv.seed, census=args.labels)
         source = f"{args.table}, every {' / '.join(args.labels)} cell"
     else:
         sample = sample_points(pd.read_parquet(args.table), conv.sample, conv.seed)
