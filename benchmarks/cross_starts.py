@@ -1,0 +1,154 @@
+"""Where a stiffer stick moves a label: another attractor of the same cell, or another model?
+
+The convergence evidence's ``k_t x 3`` row re-runs a sample of a map's cells from rest with the
+stick three times stiffer and compares labels (docs/pipeline.md).  A label that moves there has
+two readings: the cell is multistable and the refined run, started from rest like the map's,
+fell into the basin of another attractor that the map's model has too; or the refined model's
+attractor near the cell is not the map model's (the model changed, not the basin).  This tells
+them apart for every row of the convergence table whose label moved, by two cross starts, each
+run through the pipeline's own stages (:func:`analysis.multistability.point_attractors`: the
+adaptive transient, the Lyapunov record and the classifier, with the run's numerics):
+
+* the **map's model from the refined run's end state**: the refined label again means the map's
+  model has that attractor too (a basin effect, which the map's multistability runs look for);
+  the map's label again means its model returns to its own attractor from there;
+* the **refined model from the map run's end state**: the map's label again means the refined
+  model has the map's attractor too.
+
+Both end states are the ones the map and the convergence runs stored (``results/store``), each
+at a whole number of forcing periods, so a start from them keeps the forcing's phase.  The two
+models have the same state layout (``k_t`` changes no size); ``--mapping`` says how an element's
+internal slip ``z_j`` crosses: ``same`` (the numbers as they are: the same stick elongation
+``s_j - z_j``, so three times the traction or a third of it) or ``traction`` (the same traction
+``k_t (s_j - z_j)``, the elongation scaled by the ratio of the stiffnesses; an element at its
+slip limit stays there).  ``modes + 1`` is not covered: its state has other coordinates.
+
+    .venv/bin/python benchmarks/cross_starts.py --run <a finished run's working directory>
+    .venv/bin/python benchmarks/cross_starts.py --run ... --mapping traction
+    .venv/bin/python benchmarks/cross_starts.py --run ... --ladder 1.378 1.133 --k-t 10 20 30 --starts 3
+
+``--ladder OMEGA F0_REL`` instead runs the map's cell nearest to those axis values at every
+``--k-t`` from rest and ``--starts`` seeded perturbations
+(:func:`analysis.multistability.perturbed_starts`, seed 0) and prints each attractor's label
+with the starts that reached it: whether a moved label is one of several attractors of the
+refined model or the only one, and how it depends on the stiffness.
+
+Results: docs/pipeline.md, "Load controls" (the stiffer stick's moves: a basin or a model).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import yaml
+
+from analysis.continuation import state_params
+from analysis.multistability import perturbed_starts, point_attractors
+from analysis.pipeline.config import as_numerics
+from analysis.pipeline.convergence import label_text, refine
+from analysis.pipeline.store import PointStore
+from beamsim.simulate import prepare_point
+
+#: the refinements whose state has the map's layout (a cross start needs one)
+SAME_LAYOUT = ("k_t",)
+
+
+def crossed(state: np.ndarray, src, dst, mapping: str) -> np.ndarray:
+    """An end state of model ``src`` as a start of model ``dst`` (same layout ``[q, v, z,
+    mode]``): ``same`` keeps the numbers; ``traction`` rescales every element's stick elongation
+    ``s_j - z_j`` (``s = S q``) by ``k_t(src) / k_t(dst)``, so that its traction is the same."""
+    x = np.asarray(state, dtype=float).copy()
+    if mapping == "traction":
+        n, nq = src.n, src.n_quad
+        s = src.S @ x[:n]
+        x[2 * n:2 * n + nq] = s - (s - x[2 * n:2 * n + nq]) * (src.geom.k_t / dst.geom.k_t)
+    elif mapping != "same":
+        raise ValueError(f"mapping must be 'same' or 'traction', got {mapping!r}")
+    return x
+
+
+def ladder(table: pd.DataFrame, nm, omega_rel: float, f0_rel: float, k_ts: list[float], starts: int,
+           threads: int) -> None:
+    """The attractors of the cell nearest to (``omega_rel``, ``f0_rel``) at each stick stiffness."""
+    dist = np.hypot(np.log(table["Omega"] / omega_rel), np.log(table["f0_rel"] / f0_rel))
+    row = table.loc[dist.idxmin()]
+    params = json.loads(row["params_json"])
+    own = label_text(row["label"], row["period"])
+    print(f"cell Omega {row['Omega']:.4f} f0_rel {row['f0_rel']:.4f} (map: {own}), from rest (start 0) "
+          f"and {starts} perturbed starts")
+    for k_t in k_ts:
+        p = params | {"k_t": k_t}
+        t0 = time.perf_counter()
+        found = point_attractors(p, [{}, *perturbed_starts(p, starts, seed=0)], nm, threads=threads)
+        print(f"k_t {k_t:g}: " + "; ".join(
+            f"{label_text(a.label, a.period)} (starts {list(a.starts)}, lambda_1 T {a.lle_T:+.3f})"
+            for a in found.itertuples()) + f"  ({time.perf_counter() - t0:.0f} s)", flush=True)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--run", required=True, help="working directory of a finished run")
+    ap.add_argument("--grid", default="default")
+    ap.add_argument("--refinement", default="k_t", choices=SAME_LAYOUT)
+    ap.add_argument("--mapping", default="same", choices=("same", "traction"))
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--ladder", type=float, nargs=2, metavar=("OMEGA", "F0_REL"),
+                    help="instead: the attractors of this cell along --k-t")
+    ap.add_argument("--k-t", type=float, nargs="+", default=[10.0, 20.0, 30.0])
+    ap.add_argument("--starts", type=int, default=3, help="perturbed starts besides rest (--ladder)")
+    args = ap.parse_args()
+
+    run = Path(args.run)
+    nm = as_numerics(yaml.safe_load((run / "config" / "config.yaml").read_text())["numerics"])
+    table = pd.read_parquet(run / "results" / "regimes" / f"{args.grid}.parquet").set_index("point_id")
+    conv = pd.read_parquet(run / "results" / "regimes" / args.grid / "convergence.parquet")
+    if args.ladder:
+        ladder(table, nm, *args.ladder, args.k_t, args.starts, args.threads)
+        return
+    store = PointStore(run / "results" / "store", "simulate")
+    moved = conv[(conv["refinement"] == args.refinement) & ~conv["holds"].astype(bool)]
+    print(f"{len(moved)} of {int((conv['refinement'] == args.refinement).sum())} sampled labels move "
+          f"under {args.refinement}; cross starts with mapping {args.mapping!r}")
+    counts = dict.fromkeys(("map model keeps its label", "map model reaches the refined label",
+                            "refined model keeps its label", "refined model reaches the map's label"), 0)
+    t_all = time.perf_counter()
+    for _, r in moved.iterrows():
+        params = json.loads(table.loc[r["point_id"], "params_json"])
+        refined, _ = refine(args.refinement, params, nm)
+        m_map, m_ref = prepare_point(**params).model, prepare_point(**refined).model
+        end_map = store.find(r["point_id"])["final_state"]
+        end_ref = store.find(r["refined_point_id"])["final_state"]
+        want_map = label_text(r["label"], r["period"])
+        want_ref = label_text(r["refined_label"], r["refined_period"])
+        t0 = time.perf_counter()
+        cells = []
+        for who, p, start, model, own, other, keep, reach in (
+                ("map model from the refined end", params, crossed(end_ref, m_ref, m_map, args.mapping),
+                 m_map, want_map, want_ref, "map model keeps its label",
+                 "map model reaches the refined label"),
+                ("refined model from the map's end", refined, crossed(end_map, m_map, m_ref, args.mapping),
+                 m_ref, want_ref, want_map, "refined model keeps its label",
+                 "refined model reaches the map's label")):
+            a = point_attractors(p, [state_params(start, model.n, model.n_quad)], nm,
+                                 threads=args.threads).iloc[0]
+            got = label_text(a["label"], a["period"])
+            if got == own:
+                counts[keep] += 1
+            elif got == other:
+                counts[reach] += 1
+            cells.append(f"{who}: {got} (lambda_1 T {a['lle_T']:+.3f} [{a['lle_lo_T']:+.3f}, "
+                         f"{a['lle_hi_T']:+.3f}])")
+        print(f"Omega {r['Omega']:.3f} f0_rel {r['f0_rel']:.3f}: {want_map} -> {want_ref}; "
+              + "; ".join(cells) + f"  ({time.perf_counter() - t0:.0f} s)", flush=True)
+    n = len(moved)
+    print(f"summary over {n} moved labels ({time.perf_counter() - t_all:.0f} s): "
+          + ", ".join(f"{k} {v}/{n}" for k, v in counts.items()))
+
+
+if __name__ == "__main__":
+    main()
