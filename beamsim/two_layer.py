@@ -274,6 +274,9 @@ class TwoLayerModel:
     #: ``C = C_struct + c_t S^T diag(wq) S``
     c_t: float = 0.0
     C_struct: np.ndarray | None = field(default=None, repr=False)
+    #: the axial coordinates' basis: ``u_i = (axial_T^T B(theta))^T d_i``, ``B`` the enriched
+    #: axial shapes of :func:`_basis` (orthonormalised in :func:`build_model`)
+    axial_T: np.ndarray | None = field(default=None, repr=False)
 
     # ---- sizes / names
     @property
@@ -402,6 +405,17 @@ class TwoLayerModel:
         with np.errstate(divide="ignore"):
             ratio = np.where(tau > 0, mu_s * pj / np.where(tau > 0, tau, 1.0), np.inf)
         return float(0.5 * ratio.min())
+
+    def displacements(self, q, theta) -> np.ndarray:
+        """The displacement fields of generalised coordinates ``q`` at angles ``theta`` [rad]:
+        rows ``w`` (radial, shared), ``u1``, ``u2`` (the layers' centroid axial displacements),
+        units R; shape ``(3, len(theta))``.  (The interface slip is ``S @ q`` at ``theta_q``.)"""
+        th = np.atleast_1d(np.asarray(theta, dtype=float))
+        W0, _, _, B0, _ = _basis(self.modes, th, self.geom.n_slip, self.geom.static_shape)
+        B0 = self.axial_T.T @ B0
+        q = np.asarray(q, dtype=float)
+        nw, m = W0.shape[0], B0.shape[0]
+        return np.vstack([q[:nw] @ W0, q[nw:nw + m] @ B0, q[nw + m:nw + 2 * m] @ B0])
 
     def mechanical_energy(self, q, v, z=None) -> float:
         e = 0.5 * v @ self.M @ v + 0.5 * q @ self.K @ q
@@ -566,4 +580,4 @@ def build_model(geom: Geometry) -> TwoLayerModel:
         CI = (S.T * (c_t * wq)) @ S
         C = C_struct + 0.5 * (CI + CI.T)
     return TwoLayerModel(geom=geom, modes=modes, M=M, K=K, C=C, S=S, theta_q=theta_q, wq=wq,
-                         g=g, tip=tip, c_t=c_t, C_struct=C_struct)
+                         g=g, tip=tip, c_t=c_t, C_struct=C_struct, axial_T=T)

@@ -1,13 +1,14 @@
-"""Where a stiffer stick moves a label: another attractor of the same cell, or another model?
+"""Where a refined model moves a label: another attractor of the same cell, or another model?
 
-The convergence evidence's ``k_t x 3`` row re-runs a sample of a map's cells from rest with the
-stick three times stiffer and compares labels (docs/pipeline.md).  A label that moves there has
-two readings: the cell is multistable and the refined run, started from rest like the map's,
-fell into the basin of another attractor that the map's model has too; or the refined model's
-attractor near the cell is not the map model's (the model changed, not the basin).  This tells
-them apart for every row of the convergence table whose label moved, by two cross starts, each
-run through the pipeline's own stages (:func:`analysis.multistability.point_attractors`: the
-adaptive transient, the Lyapunov record and the classifier, with the run's numerics):
+The convergence evidence's ``k_t x 3`` and ``modes + 1`` rows re-run a sample of a map's cells
+from rest with the stick three times stiffer or one more mode and compare labels
+(docs/pipeline.md).  A label that moves there has two readings: the cell is multistable and the
+refined run, started from rest like the map's, fell into the basin of another attractor that
+the map's model has too; or the refined model's attractor near the cell is not the map model's
+(the model changed, not the basin).  This tells them apart for every row of the convergence
+table whose label moved, by two cross starts, each run through the pipeline's own stages
+(:func:`analysis.multistability.point_attractors`: the adaptive transient, the Lyapunov record
+and the classifier, with the run's numerics):
 
 * the **map's model from the refined run's end state**: the refined label again means the map's
   model has that attractor too (a basin effect, which the map's multistability runs look for);
@@ -16,15 +17,16 @@ adaptive transient, the Lyapunov record and the classifier, with the run's numer
   model has the map's attractor too.
 
 Both end states are the ones the map and the convergence runs stored (``results/store``), each
-at a whole number of forcing periods, so a start from them keeps the forcing's phase.  The two
-models have the same state layout (``k_t`` changes no size); ``--mapping`` says how an element's
-internal slip ``z_j`` crosses: ``same`` (the numbers as they are: the same stick elongation
-``s_j - z_j``, so three times the traction or a third of it) or ``traction`` (the same traction
-``k_t (s_j - z_j)``, the elongation scaled by the ratio of the stiffnesses; an element at its
-slip limit stays there).  ``modes + 1`` is not covered: its state has other coordinates.
+at a whole number of forcing periods, so a start from them keeps the forcing's phase.
+``--mapping`` says how a state crosses: ``transfer`` (:func:`beamsim.state_transfer.transfer_state`:
+the displacement fields projected onto the other basis, exact from three modes to four, and
+every element's traction kept) or, where the layouts are the same (``k_t``), ``same`` (the
+numbers as they are: each element's stick elongation ``s_j - z_j`` kept, so its traction
+tripled or cut to a third).
 
     .venv/bin/python benchmarks/cross_starts.py --run <a finished run's working directory>
-    .venv/bin/python benchmarks/cross_starts.py --run ... --mapping traction
+    .venv/bin/python benchmarks/cross_starts.py --run ... --refinement modes
+    .venv/bin/python benchmarks/cross_starts.py --run ... --mapping same
     .venv/bin/python benchmarks/cross_starts.py --run ... --ladder 1.378 1.133 --k-t 10 20 30 --starts 3
 
 ``--ladder OMEGA F0_REL`` instead runs the map's cell nearest to those axis values at every
@@ -33,7 +35,7 @@ slip limit stays there).  ``modes + 1`` is not covered: its state has other coor
 with the starts that reached it: whether a moved label is one of several attractors of the
 refined model or the only one, and how it depends on the stiffness.
 
-Results: docs/pipeline.md, "Load controls" (the stiffer stick's moves: a basin or a model).
+Results: docs/pipeline.md, "The refined models' moves: another attractor, or another model?".
 """
 
 from __future__ import annotations
@@ -53,23 +55,21 @@ from analysis.pipeline.config import as_numerics
 from analysis.pipeline.convergence import label_text, refine
 from analysis.pipeline.store import PointStore
 from beamsim.simulate import prepare_point
+from beamsim.state_transfer import transfer_state
 
-#: the refinements whose state has the map's layout (a cross start needs one)
-SAME_LAYOUT = ("k_t",)
+#: the refinements of the model (a cross start needs the other model's state)
+MODEL_REFINEMENTS = ("k_t", "modes")
 
 
 def crossed(state: np.ndarray, src, dst, mapping: str) -> np.ndarray:
-    """An end state of model ``src`` as a start of model ``dst`` (same layout ``[q, v, z,
-    mode]``): ``same`` keeps the numbers; ``traction`` rescales every element's stick elongation
-    ``s_j - z_j`` (``s = S q``) by ``k_t(src) / k_t(dst)``, so that its traction is the same."""
-    x = np.asarray(state, dtype=float).copy()
-    if mapping == "traction":
-        n, nq = src.n, src.n_quad
-        s = src.S @ x[:n]
-        x[2 * n:2 * n + nq] = s - (s - x[2 * n:2 * n + nq]) * (src.geom.k_t / dst.geom.k_t)
-    elif mapping != "same":
-        raise ValueError(f"mapping must be 'same' or 'traction', got {mapping!r}")
-    return x
+    """An end state of model ``src`` as a start of model ``dst``: ``transfer``
+    (:func:`~beamsim.state_transfer.transfer_state`) or ``same`` (the numbers as they are; the
+    layouts must agree)."""
+    if mapping == "transfer":
+        return transfer_state(state, src, dst)
+    if (src.n, src.n_quad) != (dst.n, dst.n_quad):
+        raise SystemExit("--mapping same needs models of one state layout (refinement k_t)")
+    return np.asarray(state, dtype=float).copy()
 
 
 def ladder(table: pd.DataFrame, nm, omega_rel: float, f0_rel: float, k_ts: list[float], starts: int,
@@ -94,8 +94,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--run", required=True, help="working directory of a finished run")
     ap.add_argument("--grid", default="default")
-    ap.add_argument("--refinement", default="k_t", choices=SAME_LAYOUT)
-    ap.add_argument("--mapping", default="same", choices=("same", "traction"))
+    ap.add_argument("--refinement", default="k_t", choices=MODEL_REFINEMENTS)
+    ap.add_argument("--mapping", default="transfer", choices=("transfer", "same"))
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--ladder", type=float, nargs=2, metavar=("OMEGA", "F0_REL"),
                     help="instead: the attractors of this cell along --k-t")

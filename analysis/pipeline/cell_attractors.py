@@ -133,8 +133,13 @@ def cell_starts(table: pd.DataFrame, final_states: Mapping[str, Sequence[float]]
     order, then ``perturbed<k>``, then ``locked`` (with ``settings.locked``, where the map's
     row says that its run slips, ``stick_fraction`` below 1, the law is the elastic stick and
     the load is below the lock-up limit: :func:`locked_start`).
-    A neighbour whose end state is not finite or has another size (``n_modes`` as an axis) is
-    left out.  Returns point id -> ``[(name, initial-state parameters), ...]``."""
+    A neighbour of another state layout (``n_modes`` or ``n_quad`` as an axis) starts the cell
+    from its end state carried into the cell's model (:func:`beamsim.state_transfer.transfer_state`:
+    the displacement fields projected onto the cell's basis, every element's traction kept);
+    one whose end state is not finite, does not fit its own model, or is of another beam
+    (``beta`` or a thickness as an axis with another layout) is left out, as is every neighbour
+    of a cell whose own end state does not fit its model.
+    Returns point id -> ``[(name, initial-state parameters), ...]``."""
     import json
 
     from analysis.continuation import state_params
@@ -146,6 +151,7 @@ def cell_starts(table: pd.DataFrame, final_states: Mapping[str, Sequence[float]]
     if len(idx_cols) != len(axes):
         raise ValueError(f"cell_starts: {len(axes)} axes but index columns {idx_cols}")
     by_index = {tuple(int(v) for v in row[idx_cols]): row["point_id"] for _, row in table.iterrows()}
+    params_of = dict(zip(table["point_id"], table["params_json"]))
     out: dict[str, list[tuple[str, dict]]] = {}
     for _, row in (table if cells is None else cells).iterrows():
         pid = row["point_id"]
@@ -162,7 +168,9 @@ def cell_starts(table: pd.DataFrame, final_states: Mapping[str, Sequence[float]]
                         continue
                     fs = np.asarray(final_states.get(by_index[nb], ()), dtype=float)
                     if fs.size != own.size:
-                        continue
+                        fs = _carried(fs, json.loads(params_of[by_index[nb]]), model)
+                        if fs is None or fs.size != own.size:
+                            continue
                     state = state_params(fs, model.n, model.n_quad)
                     if state:
                         starts.append((f"{axis}{sign}", state))
@@ -174,6 +182,23 @@ def cell_starts(table: pd.DataFrame, final_states: Mapping[str, Sequence[float]]
             starts.append((LOCKED, locked))
         out[pid] = starts
     return out
+
+
+def _carried(state: np.ndarray, params: dict, model) -> np.ndarray | None:
+    """A neighbour's end ``state`` (of the point ``params``) carried into ``model``, or ``None``
+    where it cannot be: not finite, not of its own model's size, its model of the same layout
+    as ``model`` (a size that differs is then not a layout), or of another beam."""
+    from beamsim.simulate import prepare_point
+    from beamsim.state_transfer import transfer_state
+
+    src = prepare_point(**params).model
+    if (state.size != 2 * src.n + 2 * src.n_quad or (src.n, src.n_quad) == (model.n, model.n_quad)
+            or not np.all(np.isfinite(state))):
+        return None
+    try:
+        return transfer_state(state, src, model)
+    except ValueError:  # another beam
+        return None
 
 
 def locked_start(params: dict) -> dict:

@@ -98,6 +98,44 @@ def test_starts_are_the_neighbours_end_states_in_order_and_seeded_perturbations(
     assert all(v == [] for v in none.values())
 
 
+def test_a_neighbour_with_another_mode_count_starts_the_cell_from_its_carried_state():
+    """Along an ``n_modes`` axis a neighbour's end state is carried into the cell's basis
+    (beamsim.state_transfer): from two modes to three its displacement fields exactly (each
+    model evaluates its own), from three to two a state of the two-mode layout; along the load
+    the numbers pass as they are."""
+    from beamsim.simulate import prepare_point
+
+    rows, finals, models = [], {}, {}
+    rng = np.random.default_rng(0)
+    for i, f0 in enumerate([0.2, 0.3]):
+        for j, nm in enumerate([2, 3]):
+            p = LINEAR | {"f0_rel": f0, "n_modes": nm}
+            pid = point_id(p, NM)
+            rows.append({"point_id": pid, "params_json": canonical_json(p), "index_0": i, "index_1": j,
+                         "f0_rel": f0, "n_modes": nm, "label": "periodic"})
+            m = models[nm] = prepare_point(**p).model
+            q, v = 1e-2 * rng.standard_normal(m.n), 1e-3 * rng.standard_normal(m.n)
+            finals[pid] = np.concatenate([q, v, m.S @ q - 1e-6, np.zeros(m.n_quad)])
+    table = pd.DataFrame(rows)
+    starts = cell_starts(table, finals, MultistabilitySettings(perturbations=0, locked=False),
+                         ["f0_rel", "n_modes"])
+    pid = {(r["f0_rel"], r["n_modes"]): r["point_id"] for r in rows}
+    three = dict(starts[pid[(0.2, 3)]])
+    assert list(three) == ["f0_rel+", "n_modes-"]
+    up = three["n_modes-"]
+    m2, m3 = models[2], models[3]
+    assert up["q0"].size == m3.n and up["z0"].size == m3.n_quad and up["mode0"].size == m3.n_quad
+    src = finals[pid[(0.2, 2)]]
+    theta = np.linspace(0.0, 0.4, 41)
+    for ours, theirs in ((up["q0"], src[:m2.n]), (up["v0"], src[m2.n:2 * m2.n])):
+        f2, f3 = m2.displacements(theirs, theta), m3.displacements(ours, theta)
+        assert np.abs(f3 - f2).max() <= 1e-9 * np.abs(f2).max()
+    down = dict(starts[pid[(0.3, 2)]])["n_modes+"]
+    assert down["q0"].size == m2.n and down["z0"].size == m2.n_quad
+    same = dict(starts[pid[(0.3, 3)]])["f0_rel-"]  # the same model: the numbers as they are
+    assert np.array_equal(same["q0"], finals[pid[(0.2, 3)]][:m3.n])
+
+
 def test_a_cell_below_its_lock_up_limit_whose_run_slips_also_starts_from_its_locked_orbit():
     """The locked start: last, the locked orbit's state (every element stuck, the slips of
     :func:`beamsim.shakedown.locked_orbit`), only where the map's run slips (``stick_fraction``
