@@ -20,9 +20,9 @@ stiffness ``k_t`` have states of different layout or meaning: ``[q, v, z, mode]`
 
 The target starts where the source was, with the stresses the interface held; the first
 event check of a run settles any element whose carried state is inconsistent with its limit.
-For the rigid stick (``z`` a locked-in traction) and the regularised laws, whose state has no
-stick elongation, the traction rule does not apply; :func:`transfer_state` is for the elastic
-stick (law ``stick-slip``).
+Only the elastic stick (law ``stick-slip``) has a stick elongation to carry: for the rigid
+stick ``z`` is a stuck element's locked-in traction, and the regularised laws have no stick, so
+:func:`transfer_state` refuses them.
 """
 
 from __future__ import annotations
@@ -56,13 +56,16 @@ def _fields_matrix(model: TwoLayerModel, theta: np.ndarray, weight: np.ndarray) 
     return (f * np.sqrt(dens[:, None, None] * weight[None, :, None])).reshape(-1, model.n)
 
 
-def transfer_state(state, src: TwoLayerModel, dst: TwoLayerModel) -> np.ndarray:
+def transfer_state(state, src: TwoLayerModel, dst: TwoLayerModel, law: str = "stick-slip") -> np.ndarray:
     """``state`` (``[q, v, z, mode]`` of model ``src``, e.g. ``SimResult.final_state``) as a
     state of model ``dst`` of the same beam (module docstring: fields projected, tractions
-    kept, modes of the nearest point).  Returns a new array of ``dst``'s layout; the identity
-    (to round-off) when the models are the same."""
+    kept, modes of the nearest point), for the friction law ``law`` of both (``stick-slip``
+    only; ``ValueError`` otherwise, or for models of different beams).  Returns a new array of
+    ``dst``'s layout; the identity (to round-off) when the models are the same."""
     from beamsim.modes import gauss_legendre
 
+    if law != "stick-slip":
+        raise ValueError(f"transfer_state: law {law!r} has no stick elongation to carry (stick-slip only)")
     _same_beam(src, dst)
     x = np.asarray(state, dtype=float)
     n, nq = src.n, src.n_quad

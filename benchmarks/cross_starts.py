@@ -61,12 +61,12 @@ from beamsim.state_transfer import transfer_state
 MODEL_REFINEMENTS = ("k_t", "modes")
 
 
-def crossed(state: np.ndarray, src, dst, mapping: str) -> np.ndarray:
-    """An end state of model ``src`` as a start of model ``dst``: ``transfer``
-    (:func:`~beamsim.state_transfer.transfer_state`) or ``same`` (the numbers as they are; the
-    layouts must agree)."""
+def crossed(state: np.ndarray, src, dst, mapping: str, law: str) -> np.ndarray:
+    """An end state of model ``src`` as a start of model ``dst`` (friction law ``law``):
+    ``transfer`` (:func:`~beamsim.state_transfer.transfer_state`) or ``same`` (the numbers as
+    they are; the layouts must agree)."""
     if mapping == "transfer":
-        return transfer_state(state, src, dst)
+        return transfer_state(state, src, dst, law=law)
     if (src.n, src.n_quad) != (dst.n, dst.n_quad):
         raise SystemExit("--mapping same needs models of one state layout (refinement k_t)")
     return np.asarray(state, dtype=float).copy()
@@ -121,19 +121,20 @@ def main() -> None:
         params = json.loads(table.loc[r["point_id"], "params_json"])
         refined, _ = refine(args.refinement, params, nm)
         m_map, m_ref = prepare_point(**params).model, prepare_point(**refined).model
+        law = params.get("law", "stick-slip")
         end_map = store.find(r["point_id"])["final_state"]
         end_ref = store.find(r["refined_point_id"])["final_state"]
         want_map = label_text(r["label"], r["period"])
         want_ref = label_text(r["refined_label"], r["refined_period"])
         t0 = time.perf_counter()
         cells = []
+        to_map = crossed(end_ref, m_ref, m_map, args.mapping, law)
+        to_ref = crossed(end_map, m_map, m_ref, args.mapping, law)
         for who, p, start, model, own, other, keep, reach in (
-                ("map model from the refined end", params, crossed(end_ref, m_ref, m_map, args.mapping),
-                 m_map, want_map, want_ref, "map model keeps its label",
-                 "map model reaches the refined label"),
-                ("refined model from the map's end", refined, crossed(end_map, m_map, m_ref, args.mapping),
-                 m_ref, want_ref, want_map, "refined model keeps its label",
-                 "refined model reaches the map's label")):
+                ("map model from the refined end", params, to_map, m_map, want_map, want_ref,
+                 "map model keeps its label", "map model reaches the refined label"),
+                ("refined model from the map's end", refined, to_ref, m_ref, want_ref, want_map,
+                 "refined model keeps its label", "refined model reaches the map's label")):
             a = point_attractors(p, [state_params(start, model.n, model.n_quad)], nm,
                                  threads=args.threads).iloc[0]
             got = label_text(a["label"], a["period"])

@@ -135,10 +135,10 @@ def cell_starts(table: pd.DataFrame, final_states: Mapping[str, Sequence[float]]
     the load is below the lock-up limit: :func:`locked_start`).
     A neighbour of another state layout (``n_modes`` or ``n_quad`` as an axis) starts the cell
     from its end state carried into the cell's model (:func:`beamsim.state_transfer.transfer_state`:
-    the displacement fields projected onto the cell's basis, every element's traction kept);
-    one whose end state is not finite, does not fit its own model, or is of another beam
-    (``beta`` or a thickness as an axis with another layout) is left out, as is every neighbour
-    of a cell whose own end state does not fit its model.
+    the displacement fields projected onto the cell's basis, every element's traction kept;
+    law ``stick-slip``); one whose end state is not finite, does not fit its own model, is of
+    another beam (``beta`` or a thickness as an axis with another layout) or of another law is
+    left out, as is every neighbour of a cell whose own end state does not fit its model.
     Returns point id -> ``[(name, initial-state parameters), ...]``."""
     import json
 
@@ -187,7 +187,8 @@ def cell_starts(table: pd.DataFrame, final_states: Mapping[str, Sequence[float]]
 def _carried(state: np.ndarray, params: dict, model) -> np.ndarray | None:
     """A neighbour's end ``state`` (of the point ``params``) carried into ``model``, or ``None``
     where it cannot be: not finite, not of its own model's size, its model of the same layout
-    as ``model`` (a size that differs is then not a layout), or of another beam."""
+    as ``model`` (a size that differs is then not a layout), of another beam, or of a law
+    other than the elastic stick (:func:`~beamsim.state_transfer.transfer_state`)."""
     from beamsim.simulate import prepare_point
     from beamsim.state_transfer import transfer_state
 
@@ -196,8 +197,8 @@ def _carried(state: np.ndarray, params: dict, model) -> np.ndarray | None:
             or not np.all(np.isfinite(state))):
         return None
     try:
-        return transfer_state(state, src, model)
-    except ValueError:  # another beam
+        return transfer_state(state, src, model, law=params.get("law", "stick-slip"))
+    except ValueError:  # another beam or law
         return None
 
 

@@ -122,9 +122,11 @@ def test_other_interface_points_carry_a_linear_traction_profile():
     np.testing.assert_array_equal(mode_y, mode[nearest])
 
 
-def test_another_beam_or_a_wrong_size_is_refused():
+def test_another_beam_a_wrong_size_or_another_law_is_refused():
     m = _model(n_modes=3)
     with pytest.raises(ValueError, match="beta"):
         transfer_state(_state(m), m, _model(n_modes=3, beta=0.3))
     with pytest.raises(ValueError, match="entries"):
         transfer_state(_state(m)[:-1], m, m)
+    with pytest.raises(ValueError, match="stick-slip only"):  # z is a traction there
+        transfer_state(_state(m), m, m, law="rigid-stick")
