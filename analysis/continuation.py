@@ -41,9 +41,25 @@ def state_params(final_state: np.ndarray, n: int, nq: int) -> dict:
             "mode0": x[2 * n + nq:].copy()}
 
 
+def carried_state(state: np.ndarray, src, dst, law: str) -> np.ndarray:
+    """An end state of model ``src`` as a start of model ``dst`` of another layout
+    (:func:`beamsim.state_transfer.transfer_state`); a state that is not finite stays so (the
+    next point then starts from rest, as after a diverged one)."""
+    from beamsim.state_transfer import transfer_state
+
+    x = np.asarray(state, dtype=float)
+    if not np.all(np.isfinite(x)):
+        return np.full(2 * dst.n + 2 * dst.n_quad, np.nan)
+    return transfer_state(x, src, dst, law=law)
+
+
 def continuation_sweeps(points: Sequence[dict], numerics: Numerics | dict, *, axis: str,
                         threads: int = 2) -> pd.DataFrame:
-    """Up- and down-sweep of ``points`` (parameter dicts in axis order, one state size).
+    """Up- and down-sweep of ``points`` (parameter dicts in axis order).  Each point starts
+    from its predecessor's end state; where the axis changes the state's layout (``n_modes``,
+    ``n_quad``) the end state is carried into the point's model by
+    :func:`beamsim.state_transfer.transfer_state` (fields projected onto the other basis,
+    tractions kept; law ``stick-slip``).
 
     Returns one row per branch and point (``up`` rows in axis order, then ``down`` rows in axis
     order): ``branch``, ``k`` (position on the line), ``axis`` value, ``start`` (``rest`` or
@@ -69,21 +85,23 @@ def continuation_sweeps(points: Sequence[dict], numerics: Numerics | dict, *, ax
     n_pts = len(points)
     if n_pts == 0:
         raise ValueError("continuation_sweeps: no points")
-    model = prepare_point(**points[0]).model
-    n, nq = model.n, model.n_quad
+    models = [prepare_point(**p).model for p in points]
     order = {"up": list(range(n_pts)), "down": list(range(n_pts - 1, -1, -1))}
     patterns = PatternStore()  # expo's decompositions, shared by both chains (a cost)
 
     def chain(b: str) -> dict:
         """Branch ``b``'s points in its order, each started from the previous one's end state:
         ``k -> (start, point, record)``."""
-        prev, out = None, {}
+        prev, prev_k, out = None, None, {}
         for k in order[b]:
-            init = {} if prev is None else state_params(prev, n, nq)
+            md = models[k]
+            if prev is not None and (md.n, md.n_quad) != (models[prev_k].n, models[prev_k].n_quad):
+                prev = carried_state(prev, models[prev_k], md, points[k].get("law", "stick-slip"))
+            init = {} if prev is None else state_params(prev, md.n, md.n_quad)
             p = {"point_id": f"{b}{k:05d}", "params": dict(points[k]) | init}
             rec = simulate_runs([p], nm, 1, patterns)[0]
             out[k] = ("continued" if init else "rest", p, rec)
-            prev = rec["final_state"]
+            prev, prev_k = rec["final_state"], k
         return out
 
     # the two chains side by side, each on a thread of its own (a point's records depend on its

@@ -143,8 +143,9 @@ def build_plan(config: dict, schemas: Path) -> Plan:
 def _expand_lines(grids: dict, model: dict, result_numerics: dict, model_schema: dict,
                   grid_file: str) -> dict[str, dict[str, list[GridPoint]]]:
     """The continuation lines of every grid (``grids.<g>.lines.<l>``: one axis, ``fixed`` on top
-    of the grid's), checked like grids; a line must keep one state size (its axis cannot be
-    ``n_modes`` or ``n_quad``): each point starts from its neighbour's end state."""
+    of the grid's), checked like grids: each point starts from its neighbour's end state, so a
+    line whose points differ in the state's layout (``n_modes`` or ``n_quad`` along it) needs
+    the elastic stick, whose states :func:`beamsim.state_transfer.transfer_state` carries."""
     as_grids = {}
     for g, grid in grids.items():
         for name, line in grid.get("lines", {}).items():
@@ -162,9 +163,11 @@ def _expand_lines(grids: dict, model: dict, result_numerics: dict, model_schema:
     out: dict = {g: {} for g in grids}
     for name, pts in expanded.items():
         sizes = {(p.params.get("n_modes"), p.params.get("n_quad")) for p in pts}
-        if len(sizes) > 1:
-            raise WorkflowError(f"invalid config: grids.{name}: a continuation line needs one state "
-                                f"size (its axis cannot be n_modes or n_quad) [{grid_file}]")
+        laws = {p.params.get("law", "stick-slip") for p in pts}
+        if len(sizes) > 1 and laws != {"stick-slip"}:
+            raise WorkflowError(f"invalid config: grids.{name}: a continuation line along n_modes or "
+                                f"n_quad needs law stick-slip (law {', '.join(sorted(laws))}: its state "
+                                f"cannot be carried between bases) [{grid_file}]")
         g, _, line = name.split(".", 2)
         out[g][line] = pts
     return out

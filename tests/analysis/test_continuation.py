@@ -81,3 +81,31 @@ def test_a_linear_damped_line_has_no_hysteresis(linear_line):
     moved = t2[(t2["branch"] == "down") & (t2["k"] == 2)].index[0]
     t2.at[moved, "poincare_state"] = [[v + 1.0 for v in row] for row in t2.at[moved, "poincare_state"]]
     assert list(hysteresis(t2, "f0_rel")["same_attractor"]) == [True, True, False]
+
+
+def test_a_line_along_the_mode_count_carries_each_end_state_into_the_next_basis():
+    """Along ``n_modes`` a continued point starts from its predecessor's end state carried into
+    its own basis (beamsim.state_transfer): the up-sweep's second point equals a run started by
+    hand from the carried state, and differs from its start from rest (undamped, a short
+    transient: the start is remembered); the down-sweep carries three modes into two."""
+    from beamsim.simulate import prepare_point
+    from beamsim.state_transfer import transfer_state
+
+    pts = [LINEAR | {"damping": 0.0, "f0_rel": 0.5, "n_modes": n} for n in (2, 3)]
+    nm = Numerics(n_transient=10, n_record=128, n_transient_max=10)
+    t = continuation_sweeps(pts, nm, axis="n_modes", threads=2)
+    starts = dict(zip(zip(t["branch"], t["k"]), t["start"]))
+    assert starts == {("up", 0): "rest", ("up", 1): "continued",
+                      ("down", 1): "rest", ("down", 0): "continued"}
+    m2, m3 = (prepare_point(**p).model for p in pts)
+    width = {(b, k): len(s[0]) for b, k, s in zip(t["branch"], t["k"], t["poincare_state"])}
+    assert width[("up", 0)] == width[("down", 0)] == 2 * m2.n  # Poincare samples of q and v
+    assert width[("up", 1)] == width[("down", 1)] == 2 * m3.n
+    first = simulate_runs([{"point_id": "a", "params": pts[0]}], nm, 1)[0]
+    carried = transfer_state(first["final_state"], m2, m3)
+    by_hand = simulate_runs([{"point_id": "b", "params": pts[1] | state_params(carried, m3.n, m3.n_quad)}],
+                            nm, 1)[0]
+    rest = simulate_runs([{"point_id": "c", "params": pts[1]}], nm, 1)[0]
+    got = np.asarray(t[(t["branch"] == "up") & (t["k"] == 1)].iloc[0]["poincare_w_tip"])
+    np.testing.assert_array_equal(got, by_hand["poincare_tip"][:, 0])
+    assert np.max(np.abs(got - rest["poincare_tip"][:, 0])) > 1e-3 * np.max(np.abs(got))

@@ -318,9 +318,10 @@ def test_same_table_whatever_the_chunk_size(first_run, tmp_path):
                                                              "interface_viscosity": 0.1}}}},
          "give only one of interface_damping (> 0) and interface_viscosity"),
         ({"grids": {"g": {"axes": {"Omega": [1.0]}, "fixed": {"Omega": 2.0}}}}, "both as axis and as fixed"),
-        # continuation lines: one axis, one state size, valid values
-        ({"grids": {"g": {"axes": {"Omega": [1.0]}, "lines": {"l": {"axes": {"n_modes": [1, 2]}}}}}},
-         "grids.g.lines.l: a continuation line needs one state size"),
+        # continuation lines: one axis, a state that can be carried along it, valid values
+        ({"grids": {"g": {"axes": {"Omega": [1.0]}, "fixed": {"law": "rigid-stick"},
+                          "lines": {"l": {"axes": {"n_modes": [1, 2]}}}}}},
+         "grids.g.lines.l: a continuation line along n_modes or n_quad needs law stick-slip"),
         ({"grids": {"g": {"axes": {"Omega": [1.0]},
                           "lines": {"l": {"axes": {"Omega": [1.0], "f0_rel": [1.0]}}}}}},
          "grids.g.lines.l.axes"),
