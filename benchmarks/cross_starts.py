@@ -74,7 +74,8 @@ def crossed(state: np.ndarray, src, dst, mapping: str, law: str) -> np.ndarray:
 
 def ladder(table: pd.DataFrame, nm, omega_rel: float, f0_rel: float, k_ts: list[float], starts: int,
            threads: int) -> None:
-    """The attractors of the cell nearest to (``omega_rel``, ``f0_rel``) at each stick stiffness."""
+    """The attractors of the cell nearest to (``omega_rel``, ``f0_rel``) at each stick stiffness,
+    at the cell's relative load and frequency (as the refinement ``k_t x 3`` runs it)."""
     dist = np.hypot(np.log(table["Omega"] / omega_rel), np.log(table["f0_rel"] / f0_rel))
     row = table.loc[dist.idxmin()]
     params = json.loads(row["params_json"])
@@ -122,8 +123,11 @@ def main() -> None:
         refined, _ = refine(args.refinement, params, nm)
         m_map, m_ref = prepare_point(**params).model, prepare_point(**refined).model
         law = params.get("law", "stick-slip")
-        end_map = store.find(r["point_id"])["final_state"]
-        end_ref = store.find(r["refined_point_id"])["final_state"]
+        rec_map, rec_ref = store.find(r["point_id"]), store.find(r["refined_point_id"])
+        if rec_map is None or rec_ref is None:
+            print(f"Omega {r['Omega']:.3f} f0_rel {r['f0_rel']:.3f}: a run is not in the store; left out")
+            continue
+        end_map, end_ref = rec_map["final_state"], rec_ref["final_state"]
         want_map = label_text(r["label"], r["period"])
         want_ref = label_text(r["refined_label"], r["refined_period"])
         t0 = time.perf_counter()
