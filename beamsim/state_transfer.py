@@ -50,8 +50,7 @@ def _fields_matrix(model: TwoLayerModel, theta: np.ndarray, weight: np.ndarray) 
     """Rows: the three fields at every grid point, each times ``sqrt(density x weight)``;
     columns: the model's generalised coordinates."""
     g = model.geom
-    eye = np.eye(model.n)
-    f = np.stack([model.displacements(eye[k], theta) for k in range(model.n)], axis=-1)  # (3, nt, n)
+    f = model.displacements(np.eye(model.n), theta)  # (3, nt, n)
     dens = np.array([g.alpha1 + g.alpha2, g.alpha1, g.alpha2])
     return (f * np.sqrt(dens[:, None, None] * weight[None, :, None])).reshape(-1, model.n)
 

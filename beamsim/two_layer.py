@@ -409,13 +409,14 @@ class TwoLayerModel:
     def displacements(self, q, theta) -> np.ndarray:
         """The displacement fields of generalised coordinates ``q`` at angles ``theta`` [rad]:
         rows ``w`` (radial, shared), ``u1``, ``u2`` (the layers' centroid axial displacements),
-        units R; shape ``(3, len(theta))``.  (The interface slip is ``S @ q`` at ``theta_q``.)"""
+        units R; shape ``(3, len(theta))``, or ``(3, len(theta), k)`` for ``q`` of shape
+        ``(n, k)`` (one field per column).  (The interface slip is ``S @ q`` at ``theta_q``.)"""
         th = np.atleast_1d(np.asarray(theta, dtype=float))
         W0, _, _, B0, _ = _basis(self.modes, th, self.geom.n_slip, self.geom.static_shape)
         B0 = self.axial_T.T @ B0
         q = np.asarray(q, dtype=float)
         nw, m = W0.shape[0], B0.shape[0]
-        return np.vstack([q[:nw] @ W0, q[nw:nw + m] @ B0, q[nw + m:nw + 2 * m] @ B0])
+        return np.stack([W0.T @ q[:nw], B0.T @ q[nw:nw + m], B0.T @ q[nw + m:nw + 2 * m]])
 
     def mechanical_energy(self, q, v, z=None) -> float:
         e = 0.5 * v @ self.M @ v + 0.5 * q @ self.K @ q

@@ -107,10 +107,10 @@ def main() -> None:
     run = Path(args.run)
     nm = as_numerics(yaml.safe_load((run / "config" / "config.yaml").read_text())["numerics"])
     table = pd.read_parquet(run / "results" / "regimes" / f"{args.grid}.parquet").set_index("point_id")
-    conv = pd.read_parquet(run / "results" / "regimes" / args.grid / "convergence.parquet")
     if args.ladder:
         ladder(table, nm, *args.ladder, args.k_t, args.starts, args.threads)
         return
+    conv = pd.read_parquet(run / "results" / "regimes" / args.grid / "convergence.parquet")
     store = PointStore(run / "results" / "store", "simulate")
     moved = conv[(conv["refinement"] == args.refinement) & ~conv["holds"].astype(bool)]
     print(f"{len(moved)} of {int((conv['refinement'] == args.refinement).sum())} sampled labels move "

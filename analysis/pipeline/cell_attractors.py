@@ -189,15 +189,14 @@ def _carried(state: np.ndarray, params: dict, model) -> np.ndarray | None:
     where it cannot be: not finite, not of its own model's size, its model of the same layout
     as ``model`` (a size that differs is then not a layout), of another beam, or of a law
     other than the elastic stick (:func:`~beamsim.state_transfer.transfer_state`)."""
+    from analysis.continuation import carried_state
     from beamsim.simulate import prepare_point
-    from beamsim.state_transfer import transfer_state
 
     src = prepare_point(**params).model
-    if (state.size != 2 * src.n + 2 * src.n_quad or (src.n, src.n_quad) == (model.n, model.n_quad)
-            or not np.all(np.isfinite(state))):
+    if state.size != 2 * src.n + 2 * src.n_quad or (src.n, src.n_quad) == (model.n, model.n_quad):
         return None
-    try:
-        return transfer_state(state, src, model, law=params.get("law", "stick-slip"))
+    try:  # a state that is not finite comes back so, and state_params then gives no start
+        return carried_state(state, src, model, params.get("law", "stick-slip"))
     except ValueError:  # another beam or law
         return None
 
