@@ -25,7 +25,7 @@ import pandas as pd
 
 from analysis.pipeline.config import Numerics, as_numerics
 
-__all__ = ["BRANCHES", "continuation_sweeps", "hysteresis", "state_params"]
+__all__ = ["BRANCHES", "carried_state", "carries", "continuation_sweeps", "hysteresis", "state_params"]
 
 #: the two sweep directions, in table order
 BRANCHES = ("up", "down")
@@ -39,6 +39,17 @@ def state_params(final_state: np.ndarray, n: int, nq: int) -> dict:
         return {}
     return {"q0": x[:n].copy(), "v0": x[n:2 * n].copy(), "z0": x[2 * n:2 * n + nq].copy(),
             "mode0": x[2 * n + nq:].copy()}
+
+
+def carries(src, dst, law: str) -> bool:
+    """Whether an end state of model ``src`` must be carried into model ``dst``
+    (:func:`carried_state`) rather than passed on as its numbers: the state's layout differs
+    (``n_modes``, ``n_quad``), or, for the elastic stick (``law`` ``stick-slip``), the stick
+    stiffness ``k_t`` does -- the same numbers would scale every element's traction
+    ``k_t (s_j - z_j)`` by the ratio of the stiffnesses and start stuck elements beyond their
+    friction limit, where the carried state keeps the tractions the interface held."""
+    return ((src.n, src.n_quad) != (dst.n, dst.n_quad)
+            or (law == "stick-slip" and src.geom.k_t != dst.geom.k_t))
 
 
 def carried_state(state: np.ndarray, src, dst, law: str) -> np.ndarray:
@@ -57,9 +68,9 @@ def continuation_sweeps(points: Sequence[dict], numerics: Numerics | dict, *, ax
                         threads: int = 2) -> pd.DataFrame:
     """Up- and down-sweep of ``points`` (parameter dicts in axis order).  Each point starts
     from its predecessor's end state; where the axis changes the state's layout (``n_modes``,
-    ``n_quad``) the end state is carried into the point's model by
-    :func:`beamsim.state_transfer.transfer_state` (fields projected onto the other basis,
-    tractions kept; law ``stick-slip``).
+    ``n_quad``) or the elastic stick's ``k_t`` (:func:`carries`) the end state is carried into
+    the point's model by :func:`beamsim.state_transfer.transfer_state` (fields projected onto
+    the other basis, tractions kept; law ``stick-slip``).
 
     Returns one row per branch and point (``up`` rows in axis order, then ``down`` rows in axis
     order): ``branch``, ``k`` (position on the line), ``axis`` value, ``start`` (``rest`` or
@@ -95,8 +106,9 @@ def continuation_sweeps(points: Sequence[dict], numerics: Numerics | dict, *, ax
         prev, prev_k, out = None, None, {}
         for k in order[b]:
             md = models[k]
-            if prev is not None and (md.n, md.n_quad) != (models[prev_k].n, models[prev_k].n_quad):
-                prev = carried_state(prev, models[prev_k], md, points[k].get("law", "stick-slip"))
+            law = points[k].get("law", "stick-slip")
+            if prev is not None and carries(models[prev_k], md, law):
+                prev = carried_state(prev, models[prev_k], md, law)
             init = {} if prev is None else state_params(prev, md.n, md.n_quad)
             p = {"point_id": f"{b}{k:05d}", "params": dict(points[k]) | init}
             rec = simulate_runs([p], nm, 1, patterns)[0]

@@ -133,12 +133,13 @@ def cell_starts(table: pd.DataFrame, final_states: Mapping[str, Sequence[float]]
     order, then ``perturbed<k>``, then ``locked`` (with ``settings.locked``, where the map's
     row says that its run slips, ``stick_fraction`` below 1, the law is the elastic stick and
     the load is below the lock-up limit: :func:`locked_start`).
-    A neighbour of another state layout (``n_modes`` or ``n_quad`` as an axis) starts the cell
-    from its end state carried into the cell's model (:func:`beamsim.state_transfer.transfer_state`:
-    the displacement fields projected onto the cell's basis, every element's traction kept;
-    law ``stick-slip``); one whose end state is not finite, does not fit its own model, is of
-    another beam (``beta`` or a thickness as an axis with another layout) or of another law is
-    left out, as is every neighbour of a cell whose own end state does not fit its model.
+    A neighbour of another state layout (``n_modes`` or ``n_quad`` as an axis) or, with the
+    elastic stick, of another ``k_t`` starts the cell from its end state carried into the
+    cell's model (:func:`beamsim.state_transfer.transfer_state`: the displacement fields
+    projected onto the cell's basis, every element's traction kept; law ``stick-slip``); one
+    whose end state is not finite, does not fit its own model, is of another beam (``beta`` or
+    a thickness as an axis with another layout) or of another law is left out, as is every
+    neighbour of a cell whose own end state does not fit its model.
     Returns point id -> ``[(name, initial-state parameters), ...]``."""
     import json
 
@@ -167,8 +168,9 @@ def cell_starts(table: pd.DataFrame, final_states: Mapping[str, Sequence[float]]
                     if nb not in by_index:
                         continue
                     fs = np.asarray(final_states.get(by_index[nb], ()), dtype=float)
-                    if fs.size != own.size:
-                        fs = _carried(fs, json.loads(params_of[by_index[nb]]), model)
+                    nb_params = json.loads(params_of[by_index[nb]])
+                    if fs.size != own.size or nb_params.get("k_t") != params.get("k_t"):
+                        fs = _carried(fs, nb_params, model)
                         if fs is None or fs.size != own.size:
                             continue
                     state = state_params(fs, model.n, model.n_quad)
@@ -185,18 +187,23 @@ def cell_starts(table: pd.DataFrame, final_states: Mapping[str, Sequence[float]]
 
 
 def _carried(state: np.ndarray, params: dict, model) -> np.ndarray | None:
-    """A neighbour's end ``state`` (of the point ``params``) carried into ``model``, or ``None``
-    where it cannot be: not finite, not of its own model's size, its model of the same layout
-    as ``model`` (a size that differs is then not a layout), of another beam, or of a law
-    other than the elastic stick (:func:`~beamsim.state_transfer.transfer_state`)."""
-    from analysis.continuation import carried_state
+    """A neighbour's end ``state`` (of the point ``params``) carried into ``model`` where it
+    must be (:func:`analysis.continuation.carries`: another layout, or the elastic stick's
+    other ``k_t``), the state itself where it need not, or ``None`` where it cannot be: not of
+    its own model's size, of another beam, or of a law other than the elastic stick
+    (:func:`~beamsim.state_transfer.transfer_state`); a state that is not finite comes back so
+    (``state_params`` then gives no start)."""
+    from analysis.continuation import carried_state, carries
     from beamsim.simulate import prepare_point
 
     src = prepare_point(**params).model
-    if state.size != 2 * src.n + 2 * src.n_quad or (src.n, src.n_quad) == (model.n, model.n_quad):
+    law = params.get("law", "stick-slip")
+    if state.size != 2 * src.n + 2 * src.n_quad:
         return None
-    try:  # a state that is not finite comes back so, and state_params then gives no start
-        return carried_state(state, src, model, params.get("law", "stick-slip"))
+    if not carries(src, model, law):
+        return state
+    try:
+        return carried_state(state, src, model, law)
     except ValueError:  # another beam or law
         return None
 

@@ -25,7 +25,7 @@ import numpy as np
 from analysis.pipeline.config import Numerics, as_numerics
 
 #: bump when a code change alters results for unchanged parameters (invalidates all ids)
-RESULTS_VERSION = "26"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
+RESULTS_VERSION = "27"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
 #                        conjugate pairs with damping, kernels with reassociated sums; 8: the
 #                        continuation check (the record kept is the continued one); 9: the
 #                        Lyapunov stage's free copy on expo (numerics.lyapunov.method: auto);
@@ -69,7 +69,11 @@ RESULTS_VERSION = "26"  # 6: adaptive transients, block statistics of lambda_1; 
 #                        matrices: RK4's by Cholesky solves, expo's damped decompositions in
 #                        mass-normalised coordinates (its rounding, eps cond(M), was a floor of
 #                        ~3e-7 (RK4) and ~1e-6 (expo) of the state per period; the rigid
-#                        stick keeps it)
+#                        stick keeps it); 27: a multistability neighbour or continuation
+#                        predecessor with another k_t (elastic stick) starts a point with
+#                        its tractions kept (analysis.continuation.carries; its numbers before,
+#                        which scaled the tractions by the ratio of the stiffnesses): only
+#                        grids with k_t as an axis or line change
 
 
 def _canonical(value):

@@ -136,6 +136,42 @@ def test_a_neighbour_with_another_mode_count_starts_the_cell_from_its_carried_st
     assert np.array_equal(same["q0"], finals[pid[(0.2, 3)]][:m3.n])
 
 
+def test_a_neighbour_with_another_stick_stiffness_starts_the_cell_with_its_tractions():
+    """Along a ``k_t`` axis (elastic stick) a neighbour's end state is carried with every
+    element's traction ``k_t (s_j - z_j)`` kept and its displacements as they were (the same
+    basis); the numbers as they are would triple the tractions from ``k_t`` 10 to 30 and start
+    stuck elements beyond their limit.  Along the load the numbers pass as they are."""
+    from beamsim.simulate import prepare_point
+
+    rows, finals, models = [], {}, {}
+    rng = np.random.default_rng(1)
+    for i, f0 in enumerate([0.2, 0.3]):
+        for j, kt in enumerate([10.0, 30.0]):
+            p = LINEAR | {"f0_rel": f0, "k_t": kt}
+            pid = point_id(p, NM)
+            rows.append({"point_id": pid, "params_json": canonical_json(p), "index_0": i, "index_1": j,
+                         "f0_rel": f0, "k_t": kt, "label": "periodic"})
+            m = models[kt] = prepare_point(**p).model
+            q, v = 1e-2 * rng.standard_normal(m.n), 1e-3 * rng.standard_normal(m.n)
+            tau = 1e-3 * rng.standard_normal(m.n_quad)  # the elements' tractions
+            finals[pid] = np.concatenate([q, v, m.S @ q - tau / kt, np.zeros(m.n_quad)])
+    table = pd.DataFrame(rows)
+    starts = cell_starts(table, finals, MultistabilitySettings(perturbations=0, locked=False),
+                         ["f0_rel", "k_t"])
+    pid = {(r["f0_rel"], r["k_t"]): r["point_id"] for r in rows}
+    for cell, name, nb in (((0.2, 30.0), "k_t-", (0.2, 10.0)), ((0.3, 10.0), "k_t+", (0.3, 30.0))):
+        got = dict(starts[pid[cell]])[name]
+        src, m_src, m_dst = finals[pid[nb]], models[nb[1]], models[cell[1]]
+        n = m_src.n
+        for ours, theirs in ((got["q0"], src[:n]), (got["v0"], src[n:2 * n])):
+            np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-12 * np.abs(theirs).max())
+        tau_src = nb[1] * (m_src.S @ src[:n] - src[2 * n:2 * n + m_src.n_quad])
+        tau_dst = cell[1] * (m_dst.S @ got["q0"] - got["z0"])
+        np.testing.assert_allclose(tau_dst, tau_src, rtol=0, atol=1e-9 * np.abs(tau_src).max())
+    same = dict(starts[pid[(0.3, 30.0)]])["f0_rel-"]  # the same model: the numbers as they are
+    assert np.array_equal(same["z0"], finals[pid[(0.2, 30.0)]][2 * models[30.0].n:][:models[30.0].n_quad])
+
+
 def test_a_cell_below_its_lock_up_limit_whose_run_slips_also_starts_from_its_locked_orbit():
     """The locked start: last, the locked orbit's state (every element stuck, the slips of
     :func:`beamsim.shakedown.locked_orbit`), only where the map's run slips (``stick_fraction``

@@ -109,3 +109,28 @@ def test_a_line_along_the_mode_count_carries_each_end_state_into_the_next_basis(
     got = np.asarray(t[(t["branch"] == "up") & (t["k"] == 1)].iloc[0]["poincare_w_tip"])
     np.testing.assert_array_equal(got, by_hand["poincare_tip"][:, 0])
     assert np.max(np.abs(got - rest["poincare_tip"][:, 0])) > 1e-3 * np.max(np.abs(got))
+
+
+def test_a_line_along_the_stick_stiffness_keeps_each_end_states_tractions():
+    """Along ``k_t`` (elastic stick, the same basis) a continued point starts from its
+    predecessor's end state with the tractions kept (beamsim.state_transfer), not its numbers:
+    the up-sweep's second point equals a run by hand from the carried state, and a run from the
+    numbers as they are is another trajectory (its stuck elements start at three times their
+    tractions)."""
+    from beamsim.simulate import prepare_point
+    from beamsim.state_transfer import transfer_state
+
+    # slipping (above the onset), undamped: the start is remembered over a short transient
+    pts = [{"n_modes": 2, "mu_s": 0.45, "mu_k": 0.3, "damping": 0.0, "Omega": 2.5, "f0_rel": 2.0,
+            "k_t": kt} for kt in (10.0, 30.0)]
+    nm = Numerics(n_transient=10, n_record=128, n_transient_max=10)
+    t = continuation_sweeps(pts, nm, axis="k_t", threads=2)
+    m10, m30 = (prepare_point(**p).model for p in pts)
+    first = simulate_runs([{"point_id": "a", "params": pts[0]}], nm, 1)[0]
+    carried = transfer_state(first["final_state"], m10, m30)
+    runs = simulate_runs([{"point_id": "b", "params": pts[1] | state_params(carried, m30.n, m30.n_quad)},
+                          {"point_id": "c", "params": pts[1] | state_params(first["final_state"], m30.n,
+                                                                             m30.n_quad)}], nm, 1)
+    got = np.asarray(t[(t["branch"] == "up") & (t["k"] == 1)].iloc[0]["poincare_w_tip"])
+    np.testing.assert_array_equal(got, runs[0]["poincare_tip"][:, 0])
+    assert np.max(np.abs(got - runs[1]["poincare_tip"][:, 0])) > 1e-3 * np.max(np.abs(got))
