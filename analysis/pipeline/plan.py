@@ -149,6 +149,14 @@ def _expand_lines(grids: dict, model: dict, result_numerics: dict, model_schema:
     as_grids = {}
     for g, grid in grids.items():
         for name, line in grid.get("lines", {}).items():
+            # a line has no place on its grid's other axes unless it fixes them: it would run
+            # at the model's values there (config.yaml's Omega 1, f0_rel 2), off the map
+            loose = [a for a in grid["axes"] if a not in line["axes"] and a not in line.get("fixed", {})]
+            if loose:
+                raise WorkflowError(
+                    f"invalid config: grids.{g}.lines.{name}: the grid's axis {loose[0]} is neither the "
+                    f"line's axis nor in its fixed (the line would run at the model's {loose[0]} = "
+                    f"{model.get(loose[0])!r}); give grids.{g}.lines.{name}.fixed.{loose[0]} [{grid_file}]")
             inherited = {k: v for k, v in grid.get("fixed", {}).items() if k not in line["axes"]}
             as_grids[f"{g}.lines.{name}"] = {"axes": line["axes"],
                                              "fixed": inherited | dict(line.get("fixed", {}))}

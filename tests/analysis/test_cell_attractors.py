@@ -98,28 +98,35 @@ def test_starts_are_the_neighbours_end_states_in_order_and_seeded_perturbations(
     assert all(v == [] for v in none.values())
 
 
+def _load_by(axis: str, values: list, seed: int):
+    """Cells ``f0_rel`` 0.2, 0.3 by ``axis`` ``values`` with random end states (every element
+    stuck at a random traction) and their neighbour starts: ``(pid, finals, models, starts)``,
+    ``pid`` and ``models`` keyed by ``(f0_rel, value)`` and ``value``."""
+    from beamsim.simulate import prepare_point
+
+    rows, finals, models = [], {}, {}
+    rng = np.random.default_rng(seed)
+    for i, f0 in enumerate([0.2, 0.3]):
+        for j, value in enumerate(values):
+            p = LINEAR | {"f0_rel": f0, axis: value}
+            pid = point_id(p, NM)
+            rows.append({"point_id": pid, "params_json": canonical_json(p), "index_0": i, "index_1": j,
+                         "f0_rel": f0, axis: value, "label": "periodic"})
+            m = models[value] = prepare_point(**p).model
+            q, v = 1e-2 * rng.standard_normal(m.n), 1e-3 * rng.standard_normal(m.n)
+            tau = 1e-3 * rng.standard_normal(m.n_quad)  # the elements' tractions
+            finals[pid] = np.concatenate([q, v, m.S @ q - tau / m.geom.k_t, np.zeros(m.n_quad)])
+    starts = cell_starts(pd.DataFrame(rows), finals, MultistabilitySettings(perturbations=0, locked=False),
+                         ["f0_rel", axis])
+    return {(r["f0_rel"], r[axis]): r["point_id"] for r in rows}, finals, models, starts
+
+
 def test_a_neighbour_with_another_mode_count_starts_the_cell_from_its_carried_state():
     """Along an ``n_modes`` axis a neighbour's end state is carried into the cell's basis
     (beamsim.state_transfer): from two modes to three its displacement fields exactly (each
     model evaluates its own), from three to two a state of the two-mode layout; along the load
     the numbers pass as they are."""
-    from beamsim.simulate import prepare_point
-
-    rows, finals, models = [], {}, {}
-    rng = np.random.default_rng(0)
-    for i, f0 in enumerate([0.2, 0.3]):
-        for j, nm in enumerate([2, 3]):
-            p = LINEAR | {"f0_rel": f0, "n_modes": nm}
-            pid = point_id(p, NM)
-            rows.append({"point_id": pid, "params_json": canonical_json(p), "index_0": i, "index_1": j,
-                         "f0_rel": f0, "n_modes": nm, "label": "periodic"})
-            m = models[nm] = prepare_point(**p).model
-            q, v = 1e-2 * rng.standard_normal(m.n), 1e-3 * rng.standard_normal(m.n)
-            finals[pid] = np.concatenate([q, v, m.S @ q - 1e-6, np.zeros(m.n_quad)])
-    table = pd.DataFrame(rows)
-    starts = cell_starts(table, finals, MultistabilitySettings(perturbations=0, locked=False),
-                         ["f0_rel", "n_modes"])
-    pid = {(r["f0_rel"], r["n_modes"]): r["point_id"] for r in rows}
+    pid, finals, models, starts = _load_by("n_modes", [2, 3], seed=0)
     three = dict(starts[pid[(0.2, 3)]])
     assert list(three) == ["f0_rel+", "n_modes-"]
     up = three["n_modes-"]
@@ -141,24 +148,7 @@ def test_a_neighbour_with_another_stick_stiffness_starts_the_cell_with_its_tract
     element's traction ``k_t (s_j - z_j)`` kept and its displacements as they were (the same
     basis); the numbers as they are would triple the tractions from ``k_t`` 10 to 30 and start
     stuck elements beyond their limit.  Along the load the numbers pass as they are."""
-    from beamsim.simulate import prepare_point
-
-    rows, finals, models = [], {}, {}
-    rng = np.random.default_rng(1)
-    for i, f0 in enumerate([0.2, 0.3]):
-        for j, kt in enumerate([10.0, 30.0]):
-            p = LINEAR | {"f0_rel": f0, "k_t": kt}
-            pid = point_id(p, NM)
-            rows.append({"point_id": pid, "params_json": canonical_json(p), "index_0": i, "index_1": j,
-                         "f0_rel": f0, "k_t": kt, "label": "periodic"})
-            m = models[kt] = prepare_point(**p).model
-            q, v = 1e-2 * rng.standard_normal(m.n), 1e-3 * rng.standard_normal(m.n)
-            tau = 1e-3 * rng.standard_normal(m.n_quad)  # the elements' tractions
-            finals[pid] = np.concatenate([q, v, m.S @ q - tau / kt, np.zeros(m.n_quad)])
-    table = pd.DataFrame(rows)
-    starts = cell_starts(table, finals, MultistabilitySettings(perturbations=0, locked=False),
-                         ["f0_rel", "k_t"])
-    pid = {(r["f0_rel"], r["k_t"]): r["point_id"] for r in rows}
+    pid, finals, models, starts = _load_by("k_t", [10.0, 30.0], seed=1)
     for cell, name, nb in (((0.2, 30.0), "k_t-", (0.2, 10.0)), ((0.3, 10.0), "k_t+", (0.3, 30.0))):
         got = dict(starts[pid[cell]])[name]
         src, m_src, m_dst = finals[pid[nb]], models[nb[1]], models[cell[1]]
@@ -169,7 +159,8 @@ def test_a_neighbour_with_another_stick_stiffness_starts_the_cell_with_its_tract
         tau_dst = cell[1] * (m_dst.S @ got["q0"] - got["z0"])
         np.testing.assert_allclose(tau_dst, tau_src, rtol=0, atol=1e-9 * np.abs(tau_src).max())
     same = dict(starts[pid[(0.3, 30.0)]])["f0_rel-"]  # the same model: the numbers as they are
-    assert np.array_equal(same["z0"], finals[pid[(0.2, 30.0)]][2 * models[30.0].n:][:models[30.0].n_quad])
+    m30 = models[30.0]
+    assert np.array_equal(same["z0"], finals[pid[(0.2, 30.0)]][2 * m30.n:2 * m30.n + m30.n_quad])
 
 
 def test_a_cell_below_its_lock_up_limit_whose_run_slips_also_starts_from_its_locked_orbit():

@@ -320,8 +320,12 @@ def test_same_table_whatever_the_chunk_size(first_run, tmp_path):
         ({"grids": {"g": {"axes": {"Omega": [1.0]}, "fixed": {"Omega": 2.0}}}}, "both as axis and as fixed"),
         # continuation lines: one axis, a state that can be carried along it, valid values
         ({"grids": {"g": {"axes": {"Omega": [1.0]}, "fixed": {"law": "rigid-stick"},
-                          "lines": {"l": {"axes": {"n_modes": [1, 2]}}}}}},
+                          "lines": {"l": {"axes": {"n_modes": [1, 2]}, "fixed": {"Omega": 1.0}}}}}},
          "grids.g.lines.l: a continuation line along n_modes or n_quad needs law stick-slip"),
+        # a line off its grid's other axis would run at the model's value there, off the map
+        ({"grids": {"g": {"axes": {"Omega": [1.0], "f0_rel": [1.0]},
+                          "lines": {"l": {"axes": {"k_t": [10.0, 30.0]}, "fixed": {"Omega": 1.0}}}}}},
+         "grids.g.lines.l: the grid's axis f0_rel is neither the line's axis nor in its fixed"),
         ({"grids": {"g": {"axes": {"Omega": [1.0]},
                           "lines": {"l": {"axes": {"Omega": [1.0], "f0_rel": [1.0]}}}}}},
          "grids.g.lines.l.axes"),
