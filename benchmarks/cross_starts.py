@@ -35,6 +35,16 @@ tripled or cut to a third).
 with the starts that reached it: whether a moved label is one of several attractors of the
 refined model or the only one, and how it depends on the stiffness.
 
+``--continuation K_T ...`` instead follows every moved ``k_t`` row's cell along those
+stiffnesses by continuation (:func:`analysis.continuation.continuation_sweeps`, as a line of the
+workflow runs it: each point from its neighbour's end state, tractions kept): does the map's
+attractor, stiffened step by step, keep the map's label up to the refined stiffness, or end
+where the refined run from rest does?  And the refined attractor, softened step by step: does
+it reach the map's stiffness with its own label (the map's model has such an attractor too) or
+the map's?  (The first ``K_T`` should be the map's, the last the refined row's.)
+
+    .venv/bin/python benchmarks/cross_starts.py --run ... --continuation 10 14 20 30
+
 Results: docs/pipeline.md, "The refined models' moves: another attractor, or another model?".
 """
 
@@ -91,6 +101,41 @@ def ladder(table: pd.DataFrame, nm, omega_rel: float, f0_rel: float, k_ts: list[
             for a in found.itertuples()) + f"  ({time.perf_counter() - t0:.0f} s)", flush=True)
 
 
+def continued(table: pd.DataFrame, moved: pd.DataFrame, nm, k_ts: list[float], threads: int) -> None:
+    """Every moved ``k_t`` row's cell swept up and down ``k_ts`` by continuation; prints each
+    branch's labels and how the up-branch's last label and the down-branch's first compare with
+    the refined row's and the map's."""
+    from analysis.continuation import continuation_sweeps, hysteresis
+
+    def text(r) -> str:
+        return label_text(r.label, r.period)
+
+    counts = {"up-branch label at the last k_t is the refined row's": 0, "... is the map's": 0,
+              "down-branch label at the first k_t is the map's": 0, "... is the refined row's": 0}
+    t_all = time.perf_counter()
+    for _, r in moved.iterrows():
+        params = json.loads(table.loc[r["point_id"], "params_json"])
+        t0 = time.perf_counter()
+        t = continuation_sweeps([params | {"k_t": k} for k in k_ts], nm, axis="k_t", threads=threads)
+        up, down = (t[t["branch"] == b].sort_values("k") for b in ("up", "down"))
+        last = text(up.iloc[-1])
+        want_map = label_text(r["label"], r["period"])
+        want_ref = label_text(r["refined_label"], r["refined_period"])
+        first = text(down.iloc[0])
+        counts["up-branch label at the last k_t is the refined row's"] += last == want_ref
+        counts["... is the map's"] += last == want_map
+        counts["down-branch label at the first k_t is the map's"] += first == want_map
+        counts["... is the refined row's"] += first == want_ref
+        same = "".join("Y" if x else "n" for x in hysteresis(t, "k_t")["same_attractor"])
+        print(f"Omega {r['Omega']:.3f} f0_rel {r['f0_rel']:.3f}: {want_map} -> {want_ref}; up "
+              + ", ".join(f"{k:g} {text(u)} ({u.lle_T:+.3f})" for k, u in zip(k_ts, up.itertuples()))
+              + "; down " + ", ".join(f"{k:g} {text(d)}" for k, d in zip(k_ts, down.itertuples()))
+              + f"; one attractor per k_t: {same}  ({time.perf_counter() - t0:.0f} s)", flush=True)
+    n = len(moved)
+    print(f"summary over {n} moved labels ({time.perf_counter() - t_all:.0f} s): "
+          + ", ".join(f"{k} {v}/{n}" for k, v in counts.items()))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--run", required=True, help="working directory of a finished run")
@@ -102,6 +147,8 @@ def main() -> None:
                     help="instead: the attractors of this cell along --k-t")
     ap.add_argument("--k-t", type=float, nargs="+", default=[10.0, 20.0, 30.0])
     ap.add_argument("--starts", type=int, default=3, help="perturbed starts besides rest (--ladder)")
+    ap.add_argument("--continuation", type=float, nargs="+", metavar="K_T",
+                    help="instead: every moved k_t row's cell continued along these stiffnesses")
     args = ap.parse_args()
 
     run = Path(args.run)
@@ -113,6 +160,13 @@ def main() -> None:
     conv = pd.read_parquet(run / "results" / "regimes" / args.grid / "convergence.parquet")
     store = PointStore(run / "results" / "store", "simulate")
     moved = conv[(conv["refinement"] == args.refinement) & ~conv["holds"].astype(bool)]
+    if args.continuation:
+        if args.refinement != "k_t":
+            raise SystemExit("--continuation follows the k_t row's cells (--refinement k_t)")
+        print(f"{len(moved)} of {int((conv['refinement'] == 'k_t').sum())} sampled labels move under k_t; "
+              f"each cell continued along k_t {args.continuation}")
+        continued(table, moved, nm, args.continuation, args.threads)
+        return
     print(f"{len(moved)} of {int((conv['refinement'] == args.refinement).sum())} sampled labels move "
           f"under {args.refinement}; cross starts with mapping {args.mapping!r}")
     counts = dict.fromkeys(("map model keeps its label", "map model reaches the refined label",
