@@ -55,8 +55,7 @@ def carries(src, dst, law: str) -> bool:
 def carried_state(state: np.ndarray, src, dst, law: str) -> np.ndarray:
     """An end state of model ``src`` as a start of model ``dst`` of another layout or stick
     stiffness (:func:`carries`; :func:`beamsim.state_transfer.transfer_state`); a state that is
-    not finite stays so (the
-    next point then starts from rest, as after a diverged one)."""
+    not finite stays so (the next point then starts from rest, as after a diverged one)."""
     from beamsim.state_transfer import transfer_state
 
     x = np.asarray(state, dtype=float)
