@@ -25,7 +25,8 @@ import pandas as pd
 
 from analysis.pipeline.config import Numerics, as_numerics
 
-__all__ = ["BRANCHES", "carried_state", "carries", "continuation_sweeps", "hysteresis", "state_params"]
+__all__ = ["BRANCHES", "carried_state", "carries", "continuation_sweeps", "continue_from", "hysteresis",
+           "state_params"]
 
 #: the two sweep directions, in table order
 BRANCHES = ("up", "down")
@@ -143,6 +144,44 @@ def continuation_sweeps(points: Sequence[dict], numerics: Numerics | dict, *, ax
     out = pd.DataFrame(rows)
     out["period"] = out["period"].astype("Int64")
     out[["lock_ratio", "shakedown_ratio"]] = lock_ratios(points)[out["k"].to_numpy()]
+    return out
+
+
+def continue_from(state: np.ndarray, src, points: Sequence[dict], numerics: Numerics | dict, *,
+                  lle_threshold: float, threads: int = 1) -> pd.Series:
+    """Where an attractor goes along a path of parameter points: ``state`` (an end state of
+    model ``src``, e.g. a map point's) starts ``points[0]``, each next point starts from its
+    predecessor's end state (carried into its model where :func:`carries` says so), every
+    point through the pipeline's simulate stage (adaptive transient, continuation check); the
+    last point's record then through the Lyapunov and classify stages (``lle_threshold``: the
+    classifier's margin).  Returns the last point's classification row (``label``, ``period``,
+    ``reason``, ...) with its ``lle_mean``, ``lle_lo``, ``lle_hi`` and ``omega``.  Raises
+    ``ValueError`` where a state cannot be carried (another beam, a law without stick
+    elongations) or ``state`` is not finite (a start from rest would not continue anything)."""
+    from analysis.pipeline.stages import classify_points, lyapunov_records, records_table, simulate_runs
+    from beamsim.simulate import prepare_point
+
+    nm = as_numerics(numerics)
+    prev, prev_model = np.asarray(state, dtype=float), src
+    if not points or not np.all(np.isfinite(prev)):
+        raise ValueError("continue_from: no points, or a start state that is not finite")
+    for k, params in enumerate(points):
+        model = prepare_point(**params).model
+        law = params.get("law", "stick-slip")
+        if carries(prev_model, model, law):
+            prev = carried_state(prev, prev_model, model, law)
+        start = state_params(prev, model.n, model.n_quad)
+        if not start:
+            raise ValueError(f"continue_from: point {k} has no finite start state")
+        p = {"point_id": f"continued{k:05d}", "params": dict(params) | start}
+        rec = simulate_runs([p], nm, threads)[0]
+        prev, prev_model = rec["final_state"], model
+    sim = records_table([p], [rec])
+    lyap = records_table([p], lyapunov_records([p], sim.set_index("point_id"), nm, threads))
+    out = classify_points(sim, lyap, lle_threshold=lle_threshold).iloc[0].copy()
+    for c in ("lle_mean", "lle_lo", "lle_hi"):
+        out[c] = lyap[c].iloc[0]
+    out["omega"] = rec["omega"]
     return out
 
 

@@ -26,6 +26,15 @@ run share everything else; a grid runs the refinements that are knobs of its fri
   interface's regularisation as ``k_t`` is the stick-slip law's;
 * ``modes``: one more arch mode in the Galerkin basis.
 
+A label that moves under a model refinement (``k_t``, ``modes``: :data:`CONTINUED`) is also
+followed from the map's attractor (:func:`continuation_path`): the map run's end state is
+stiffened in :data:`K_T_STEPS` geometric steps of ``k_t`` (each start carried with its
+tractions kept), or carried into the basis with one more mode, and the refined model's
+attractor reached that way is classified (``continued_label``).  The refined label again says
+that the map's attractor does not persist in the refined model (the move is the model's); the
+map's label says that it does, in another basin than the refined start from rest (the move is
+the refined model's multistability).
+
 Three **controls** change the load instead of the numerics (:data:`CONTROLS`): ``load_up``
 and ``load_down`` multiply the load amplitude by ``1 + LOAD_SHIFT`` and divide it by it
 (``f0_rel``, or ``f0`` where a point gives that).  A label that moves under a 2 % change of the
@@ -120,6 +129,13 @@ SEPARATION_FACTOR = 10.0
 
 #: the model's largest Galerkin basis (workflow/schemas/config.schema.yaml, model.n_modes)
 MAX_MODES = 12
+
+#: the model refinements whose moved labels are followed from the map's attractor
+#: (:func:`continuation_path`)
+CONTINUED = ("k_t", "modes")
+
+#: geometric steps of the stick stiffness from the map's ``k_t`` to the refined one
+K_T_STEPS = 3
 
 
 @dataclass(frozen=True)
@@ -273,6 +289,19 @@ def refine(refinement: str, params: dict, numerics: Numerics | dict) -> tuple[di
     return p, nm
 
 
+def continuation_path(refinement: str, params: Mapping, refined_params: Mapping) -> list[dict]:
+    """The points along which a moved label's map attractor is followed into the refined model
+    (:data:`CONTINUED`): ``k_t`` in :data:`K_T_STEPS` geometric steps from the map's stiffness
+    to the refined one (the last point the refined point itself), one more mode in one step."""
+    if refinement not in CONTINUED:
+        raise ValueError(f"continuation_path: refinement {refinement!r} is not one of {CONTINUED}")
+    if refinement == "k_t":
+        k0, k1 = float(params["k_t"]), float(refined_params["k_t"])
+        return [dict(params) | {"k_t": k0 * (k1 / k0) ** (i / K_T_STEPS)} for i in range(1, K_T_STEPS)] + [
+            dict(refined_params)]
+    return [dict(refined_params)]
+
+
 def reuses_reference_runs(params: Mapping, numerics: Numerics, refined_params: Mapping,
                           refined_numerics: Numerics) -> bool:
     """Whether a refined point's reference runs (the simulate stage) are the map's point's:
@@ -373,8 +402,12 @@ def convergence_runs(table: pd.DataFrame, refinement: str, numerics: Numerics | 
     ``lle_hi_T`` of the map and ``refined_*`` of the refined run (``lambda_1 T`` per forcing
     period; NaN where not measured), ``refined_reason``, ``refined_point_id``,
     ``refined_stick_fraction``, ``locked`` (the map's ``lock_ratio`` below 1: a locked period-1
-    motion exists beside the map's; NA where the table has no ratio) and ``holds``
-    (:func:`same_label`: the same regime and, for a periodic orbit, the same period).
+    motion exists beside the map's; NA where the table has no ratio), ``holds``
+    (:func:`same_label`: the same regime and, for a periodic orbit, the same period) and
+    ``continued_label`` / ``continued_period``: for a label that moved under a model refinement
+    (:data:`CONTINUED`), the refined model's label reached from the map run's stored end state
+    along :func:`continuation_path` (:func:`analysis.continuation.continue_from`; NA for other
+    rows, or where the end state is not in the store, not finite, or cannot be carried).
     """
     from analysis.pipeline.neighbours import supported
     from analysis.pipeline.stages import classify_points, lle_resolution, lyapunov_points, simulate_points
@@ -429,18 +462,45 @@ def convergence_runs(table: pd.DataFrame, refinement: str, numerics: Numerics | 
                            else bool(base["lock_ratio"] < 1.0)),
                 "holds": same_label(base["label"], base["period"], m["label"], m["period"])}
         rows.append(row)
+    if refinement in CONTINUED:
+        _follow_moves(rows, sample, refined, store_root, threads)
     # the columns named, so that a sample without cells (a census of a label the map lacks,
     # with no sample) gives an empty table of the same columns
     columns = ["point_id", "refinement", *axes, "weight", "supported", "label", "period", "lle_T",
                "lle_lo_T", "lle_hi_T", "refined_label", "refined_period", "refined_lle_T",
                "refined_lle_lo_T", "refined_lle_hi_T", "refined_reason", "refined_point_id",
-               "refined_stick_fraction", "locked", "holds"]
+               "refined_stick_fraction", "locked", "holds", "continued_label", "continued_period"]
     out = pd.DataFrame(rows, columns=columns)
-    for c in ("period", "refined_period"):
+    for c in ("period", "refined_period", "continued_period"):
         out[c] = out[c].astype("Int64")
     out["supported"] = out["supported"].astype("boolean")
     out["locked"] = out["locked"].astype("boolean")
     return out
+
+
+def _follow_moves(rows: list[dict], sample: pd.DataFrame, refined: list[dict], store_root: str,
+                  threads: int) -> None:
+    """``continued_label`` / ``continued_period`` of every row whose label moved (in place;
+    :func:`convergence_runs`)."""
+    from analysis.continuation import continue_from
+    from analysis.pipeline.stages import lle_resolution
+    from analysis.pipeline.store import PointStore
+    from beamsim.simulate import prepare_point
+
+    store = PointStore(store_root, "simulate")
+    for row, (_, base), r in zip(rows, sample.iterrows(), refined):
+        row["continued_label"], row["continued_period"] = None, None
+        rec = None if row["holds"] else store.find(r["map_id"])
+        if rec is None:
+            continue
+        base_params = json.loads(base["params_json"])
+        path = continuation_path(row["refinement"], base_params, r["params"])
+        try:
+            c = continue_from(rec["final_state"], prepare_point(**base_params).model, path, r["numerics"],
+                              lle_threshold=lle_resolution(r["numerics"]), threads=threads)
+        except ValueError:  # not finite, or a law whose state cannot be carried
+            continue
+        row["continued_label"], row["continued_period"] = c["label"], c["period"]
 
 
 #: labels that are a verdict on the dynamics (the others say that there is none yet)
@@ -512,7 +572,11 @@ def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
     whose refined run ended locked below the map's lock-up limit (:func:`onto_locked`); and
     ``unflagged`` (refinements only, NA for a control): the labels that moved although the map
     flags nothing about them (:func:`flagged`) and that did not end locked below the limit,
-    the count a referee re-running those cells would find no mark for."""
+    the count a referee re-running those cells would find no mark for; ``followed`` and
+    ``persisted`` (model refinements, :data:`CONTINUED`, NA otherwise or without the column
+    ``continued_label``): the moved labels followed from the map's attractor into the refined
+    model, and of those the ones that ended on the map's label there (the map's attractor
+    persists; the move is the refined model's multistability, not a change of the model)."""
     controls = runs[runs["refinement"].isin(CONTROLS)]
     robust = controls.groupby("point_id")["holds"].all() if len(controls) else None
     rows = []
@@ -533,6 +597,12 @@ def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
         locked = ~holds & onto_locked(g)
         locked_moves = pd.NA if ref in CONTROLS else int(locked.sum())
         unflagged = pd.NA if ref in CONTROLS else int((~holds & ~locked & ~flagged(g, robust)).sum())
+        followed = persisted = pd.NA
+        if ref in CONTINUED and "continued_label" in g:
+            cont = g[~holds & g["continued_label"].notna()]
+            followed = len(cont)
+            persisted = int(sum(same_label(a, p, b, q) for a, p, b, q in zip(
+                cont["label"], cont["period"], cont["continued_label"], cont["continued_period"])))
         n_sup = held_sup = pd.NA
         if "supported" in g and g["supported"].notna().any():
             sup = g["supported"].fillna(False).to_numpy(bool)
@@ -545,12 +615,13 @@ def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
                      "flips": "; ".join(f"{k}: {v}" for k, v in flips.items()),
                      "n_robust": n_robust, "held_robust": held_robust,
                      "n_supported": n_sup, "held_supported": held_sup, "locked_moves": locked_moves,
-                     "unflagged": unflagged})
+                     "unflagged": unflagged, "followed": followed, "persisted": persisted})
     out = pd.DataFrame(rows, columns=["refinement", "what", "n", "held", "fraction", "fraction_lo",
                                       "fraction_hi", "map_fraction", "contradicted", "flips",
                                       "n_robust", "held_robust", "n_supported", "held_supported",
-                                      "locked_moves", "unflagged"])
-    for c in ("n_robust", "held_robust", "n_supported", "held_supported", "locked_moves", "unflagged"):
+                                      "locked_moves", "unflagged", "followed", "persisted"])
+    for c in ("n_robust", "held_robust", "n_supported", "held_supported", "locked_moves", "unflagged",
+              "followed", "persisted"):
         out[c] = out[c].astype("Int64")
     return out
 
@@ -583,8 +654,10 @@ def summary_line(summary: pd.DataFrame, unchecked: str = "convergence.sample = 0
     12/20 whose label a grid neighbour shares: step / 2 12/12, ...``, and by the refinements'
     ``unflagged`` counts: ``; moved without a flag (...): step / 2 0, ...``, and, where a
     refinement's runs ended locked below the map's lock-up limit (``locked_moves``), by
-    ``; ended locked below the lock-up limit (...): windows x 2 3``.  Without runs: ``labels
-    not checked under refinement (<unchecked>)``, the reason (:func:`unchecked_reason`)."""
+    ``; ended locked below the lock-up limit (...): windows x 2 3``, and, where moved labels
+    were followed from the map's attractor (``followed``), by ``; moved labels followed from
+    the map's attractor, ending on the map's label: k_t x 3 0/8, ...``.  Without runs:
+    ``labels not checked under refinement (<unchecked>)``, the reason (:func:`unchecked_reason`)."""
     if summary is None or summary.empty:
         return f"labels not checked under refinement ({unchecked})"
     parts = [f"{r['what']} {r['held']}/{r['n']} [{r['fraction_lo']:.2f}-{r['fraction_hi']:.2f}]"
@@ -611,6 +684,11 @@ def summary_line(summary: pd.DataFrame, unchecked: str = "convergence.sample = 0
     if len(onto):
         line += ("; ended locked below the lock-up limit (the map's label there may be a transient): "
                  + ", ".join(f"{r['what']} {int(r['locked_moves'])}" for _, r in onto.iterrows()))
+    fol = _rows_with(summary, "followed", positive=True)
+    if len(fol):
+        line += ("; moved labels followed from the map's attractor, ending on the map's label: "
+                 + ", ".join(f"{r['what']} {int(r['persisted'])}/{int(r['followed'])}"
+                             for _, r in fol.iterrows()))
     return line
 
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from analysis.continuation import continuation_sweeps, hysteresis, state_params
+from analysis.continuation import continuation_sweeps, continue_from, hysteresis, state_params
 from analysis.pipeline.config import Numerics
 from analysis.pipeline.stages import simulate_runs
 
@@ -134,3 +134,27 @@ def test_a_line_along_the_stick_stiffness_keeps_each_end_states_tractions():
     got = np.asarray(t[(t["branch"] == "up") & (t["k"] == 1)].iloc[0]["poincare_w_tip"])
     np.testing.assert_array_equal(got, runs[0]["poincare_tip"][:, 0])
     assert np.max(np.abs(got - runs[1]["poincare_tip"][:, 0])) > 1e-3 * np.max(np.abs(got))
+
+
+def test_continue_from_follows_a_state_along_a_path_as_a_line_does():
+    """``continue_from`` (the convergence evidence's path from a map's attractor into the refined
+    model) is a line's up-branch without its first point: from the first point's end state,
+    carried along ``k_t``, the last point gets the same label and exponent as the sweep's; a
+    state that is not finite is refused (it would be a start from rest, not a continuation)."""
+    from analysis.pipeline.stages import lle_resolution
+    from beamsim.simulate import prepare_point
+
+    pts = [{"n_modes": 1, "mu_s": 0.45, "mu_k": 0.3, "damping": 0.0, "Omega": 2.5, "f0_rel": 2.0,
+            "k_t": kt} for kt in (10.0, 17.0, 30.0)]
+    nm = Numerics(n_transient=10, n_record=128, n_transient_max=10)
+    t = continuation_sweeps(pts, nm, axis="k_t", threads=2)
+    up = t[t["branch"] == "up"].sort_values("k")
+    first = simulate_runs([{"point_id": "a", "params": pts[0]}], nm, 1)[0]
+    m10 = prepare_point(**pts[0]).model
+    got = continue_from(first["final_state"], m10, pts[1:], nm, lle_threshold=lle_resolution(nm))
+    want = up.iloc[-1]
+    assert (got["label"], got["period"]) == (want["label"], want["period"]), got["reason"]
+    period_t = 2 * np.pi / got["omega"]
+    assert got["lle_mean"] * period_t == pytest.approx(want["lle_T"], rel=1e-12, abs=1e-15)
+    with pytest.raises(ValueError, match="not finite"):
+        continue_from(np.full_like(first["final_state"], np.nan), m10, pts[1:], nm, lle_threshold=0.05)

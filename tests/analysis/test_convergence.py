@@ -411,6 +411,45 @@ def test_a_linear_point_keeps_its_label_under_every_refinement(tmp_path):
     assert canonical_json(point) == table["params_json"].iloc[0]
 
 
+def test_a_moved_model_label_is_followed_from_the_maps_attractor(tmp_path):
+    """A model refinement's moved label is followed from the map run's stored end state into
+    the refined model (``k_t`` in three geometric steps, ``modes`` in one) and classified there:
+    on the linear damped structure (one attractor, whatever ``k_t`` or the mode count) the
+    continued label is the refined one, periodic-1.  The map's label is set to chaotic by hand
+    so that it "moves"; a label that holds is not followed (NA)."""
+    from analysis.pipeline.convergence import K_T_STEPS, continuation_path
+    from analysis.pipeline.stages import classify_points, lle_resolution, lyapunov_points, simulate_points
+    from analysis.pipeline.table import assemble_regime_table
+
+    nm = Numerics(n_transient=80, n_record=128, n_transient_max=80)
+    point = POINT | {"damping": 0.1}
+    pts = [{"point_id": point_id(point, nm), "params": point, "index": [0]}]
+    sim = simulate_points(pts, nm, str(tmp_path), threads=2)
+    lyap = lyapunov_points(pts, sim, nm, str(tmp_path), threads=2)
+    table = assemble_regime_table(pts, sim, lyap, classify_points(sim, lyap, lle_resolution(nm)))
+    settings = ConvergenceSettings(sample=1)
+    path = continuation_path("k_t", point, refine("k_t", point, nm)[0])
+    assert len(path) == K_T_STEPS and path[-1]["k_t"] == 3 * point["k_t"]
+    assert point["k_t"] < path[0]["k_t"] < path[1]["k_t"] < path[2]["k_t"]
+    assert path[1]["k_t"] / path[0]["k_t"] == pytest.approx(path[0]["k_t"] / point["k_t"])
+    held = convergence_runs(table, "k_t", nm, settings, str(tmp_path), axes=["f0_rel"], threads=2)
+    assert bool(held["holds"].iloc[0]) and pd.isna(held["continued_label"].iloc[0])
+    moved = table.assign(label="chaotic", period=pd.array([None], dtype="Int64"))
+    runs = [convergence_runs(moved, ref, nm, settings, str(tmp_path), axes=["f0_rel"], threads=2)
+            for ref in ("k_t", "modes", "step")]
+    for r in runs[:2]:
+        assert not bool(r["holds"].iloc[0])
+        assert (r["continued_label"].iloc[0], r["continued_period"].iloc[0]) == ("periodic", 1)
+    assert pd.isna(runs[2]["continued_label"].iloc[0])  # not a model refinement
+    # the summary: one moved label followed per model refinement, none ending on the map's label
+    summary = convergence_summary(pd.concat(runs, ignore_index=True)).set_index("refinement")
+    assert list(summary.loc[["k_t", "modes"], "followed"]) == [1, 1]
+    assert list(summary.loc[["k_t", "modes"], "persisted"]) == [0, 0]
+    assert pd.isna(summary.loc["step", "followed"])
+    assert (f"ending on the map's label: {REFINEMENTS['k_t']} 0/1, {REFINEMENTS['modes']} 0/1"
+            in summary_line(summary.reset_index()))
+
+
 def test_neighbour_support_counts_axis_neighbours_with_the_same_label():
     """A 3 x 3 grid, computed by hand: the centre is chaotic in a periodic-1 map but for its
     right neighbour, which is chaotic too; the corner (2, 2) is periodic-2, which no neighbour
