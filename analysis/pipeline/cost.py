@@ -87,6 +87,10 @@ NEW_ATTRACTOR_SHARE = 0.5
 #: lock-up limit, slipping; default grid, chaotic, undetermined and quasi-periodic: 27 of 400
 #: on results version 26's znver3 map, 16 + 6 + 5; chaotic alone 13-16, docs/pipeline.md)
 LIFETIME_CELL_SHARE = 0.0675
+#: expected share of a model refinement's sampled labels that move and are followed from the
+#: map's attractor (:func:`analysis.pipeline.convergence.continuation_path`; results version
+#: 27's znver3 default map: 8 of 20 under k_t x 3 and under modes + 1)
+MOVED_SHARE = 0.4
 #: expected share of a grid's cells per label, for a census of the convergence runs
 #: (``convergence.census``: every cell of a label; results version 26's znver3 default map:
 #: periodic 292, quasi-periodic 24, chaotic 26, undetermined 53, unsettled 5 of 400)
@@ -235,22 +239,33 @@ def convergence_seconds(points: Sequence, numerics: Numerics, refinements: Itera
     runs: for each of ``refinements``, ``min(sample, len(points))`` times the mean of
     :func:`point_seconds` over ``points`` refined: both stages, or the Lyapunov stage alone
     where the refined point reads the map's reference runs
-    (:func:`analysis.pipeline.convergence.reuses_reference_runs`: ``separation``)."""
-    from analysis.pipeline.convergence import refine, reuses_reference_runs
+    (:func:`analysis.pipeline.convergence.reuses_reference_runs`: ``separation``); for a model
+    refinement (:data:`analysis.pipeline.convergence.CONTINUED`) also :data:`MOVED_SHARE` of
+    the sample followed from the map's attractor, each a simulate run per point of its path
+    (``K_T_STEPS`` for ``k_t``, one for ``modes``, at the refined point's cost) and one
+    Lyapunov run (counted as runs too)."""
+    from analysis.pipeline.convergence import CONTINUED, K_T_STEPS, refine, reuses_reference_runs
 
     model = load_cost_model() if model is None else model
     n = min(int(sample), len(points))
     seconds, runs = 0.0, 0
     for ref in refinements:
-        costs = []
+        costs, followed = [], []
         for p in points:
             params, nm = refine(ref, p.params, numerics)
             stages = (("lyapunov",) if reuses_reference_runs(p.params, numerics, params, nm)
                       else ("simulate", "lyapunov"))
             costs.append(point_seconds(params, nm, model, stages))
+            if ref in CONTINUED:
+                steps = K_T_STEPS if ref == "k_t" else 1
+                followed.append(steps * point_seconds(params, nm, model, ("simulate",))
+                                + point_seconds(params, nm, model, ("lyapunov",)))
         if costs and n:
             seconds += n * sum(costs) / len(costs)
             runs += n
+        if followed and n:
+            seconds += MOVED_SHARE * n * sum(followed) / len(followed)
+            runs += round(MOVED_SHARE * n)
     return seconds, runs
 
 

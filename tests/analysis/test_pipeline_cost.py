@@ -14,10 +14,11 @@ from workflow_run import setup_workdir, snakemake
 
 from analysis.pipeline.chaos_lifetime import LifetimeSettings
 from analysis.pipeline.config import LyapunovNumerics, Numerics
-from analysis.pipeline.convergence import refine
+from analysis.pipeline.convergence import K_T_STEPS, refine
 from analysis.pipeline.cost import (
     LABEL_SHARE,
     LONG_RUN_SECONDS,
+    MOVED_SHARE,
     Estimate,
     convergence_cells,
     estimate_run,
@@ -92,12 +93,23 @@ def test_the_convergence_runs_are_in_the_estimate(tmp_path):
     modes = estimate_run(pts, Numerics(), tmp_path, convergence=[(pts, ["modes"], 2)])
     more = expand_grid("g", {"axes": {"Omega": [2.0, 3.0, 4.0]}}, MODEL | {"n_modes": 3},
                        Numerics().result_dict())
+    # at one mode more, and MOVED_SHARE of the sample followed from the map's attractor (one
+    # carried step: a simulate and a Lyapunov run, a point's cost again)
     assert modes.cpu_seconds - base.cpu_seconds == pytest.approx(
-        2 * estimate_run(more, Numerics(), tmp_path).cpu_seconds / len(more))  # at one mode more
+        (1 + MOVED_SHARE) * 2 * estimate_run(more, Numerics(), tmp_path).cpu_seconds / len(more))
+    assert modes.convergence_runs == 2 + round(MOVED_SHARE * 2)
+    # k_t x 3: the refined points, then the moved share's path, K_T_STEPS simulate runs each
+    kt = estimate_run(pts, Numerics(), tmp_path, convergence=[(pts, ["k_t"], 2)])
+    refined = [refine("k_t", p.params, Numerics()) for p in pts]
+    sim, lyap = ([point_seconds(q, n, load_cost_model(), (stage,)) for q, n in refined]
+                 for stage in ("simulate", "lyapunov"))
+    assert kt.cpu_seconds - base.cpu_seconds == pytest.approx(
+        2 * (sum(sim) + sum(lyap)) / len(pts)
+        + MOVED_SHARE * 2 * (K_T_STEPS * sum(sim) + sum(lyap)) / len(pts))
     none = estimate_run(pts, Numerics(), tmp_path, convergence=[(pts, [], 2), (pts, ["k_t"], 0)])
     assert none.cpu_seconds == base.cpu_seconds and none.convergence_runs == 0
     many = estimate_run(pts, Numerics(), tmp_path, convergence=[(pts, ["k_t"], 50)])
-    assert many.convergence_runs == 3  # the sample is at most the grid
+    assert many.convergence_runs == 3 + round(MOVED_SHARE * 3)  # the sample is at most the grid
     line = estimate_run(pts, Numerics(), tmp_path, lines=[pts[:2]])  # two points, up and down
     assert line.convergence_runs == 4
     assert line.cpu_seconds - base.cpu_seconds == pytest.approx(
@@ -108,7 +120,7 @@ def test_the_convergence_runs_are_in_the_estimate(tmp_path):
     assert base.cpu_seconds < multi.cpu_seconds < base.cpu_seconds + 10 * mean
     off = estimate_run(pts, Numerics(), tmp_path, multistability=[(pts, 0, 5)])
     assert off.cpu_seconds == base.cpu_seconds and off.convergence_runs == 0
-    assert "3 convergence / continuation / multistability / lifetime runs" in many.summary(2)
+    assert "4 convergence / continuation / multistability / lifetime runs" in many.summary(2)
     one = estimate_run(pts, Numerics(), tmp_path, convergence=[(pts, ["k_t"], 1)])
     assert "1 convergence / continuation / multistability / lifetime run;" in one.summary(2)
 
