@@ -30,10 +30,11 @@ A label that moves under a model refinement (``k_t``, ``modes``: :data:`CONTINUE
 followed from the map's attractor (:func:`continuation_path`): the map run's end state is
 stiffened in :data:`K_T_STEPS` geometric steps of ``k_t`` (each start carried with its
 tractions kept), or carried into the basis with one more mode, and the refined model's
-attractor reached that way is classified (``continued_label``).  The refined label again says
-that the map's attractor does not persist in the refined model (the move is the model's); the
-map's label says that it does, in another basin than the refined start from rest (the move is
-the refined model's multistability).
+attractor reached that way is classified (``continued_label``).  A label other than the map's
+says that the map's attractor does not persist in the refined model (the move is the model's);
+the map's label says that an attractor of that label does (the map's, or one like it: a label
+is not an attractor's identity), in another basin than the refined start from rest's (the move
+is the refined model's multistability).
 
 Three **controls** change the load instead of the numerics (:data:`CONTROLS`): ``load_up``
 and ``load_down`` multiply the load amplitude by ``1 + LOAD_SHIFT`` and divide it by it
@@ -575,8 +576,8 @@ def convergence_summary(runs: pd.DataFrame) -> pd.DataFrame:
     the count a referee re-running those cells would find no mark for; ``followed`` and
     ``persisted`` (model refinements, :data:`CONTINUED`, NA otherwise or without the column
     ``continued_label``): the moved labels followed from the map's attractor into the refined
-    model, and of those the ones that ended on the map's label there (the map's attractor
-    persists; the move is the refined model's multistability, not a change of the model)."""
+    model, and of those the ones that ended on the map's label there (an attractor of the map's
+    label persists; the move is the refined model's multistability, not a change of the model)."""
     controls = runs[runs["refinement"].isin(CONTROLS)]
     robust = controls.groupby("point_id")["holds"].all() if len(controls) else None
     rows = []
