@@ -20,6 +20,20 @@ from analysis.pipeline.convergence import CONTROLS
 HOLD_TARGET = 0.95
 
 
+def row_labels(summary: pd.DataFrame) -> list[str]:
+    """The left panel's row names: the refinement (``control: ...`` for a control) and, for a
+    model row whose moved labels were followed from the map's attractor (``followed``), how
+    many ended on the map's label there (``persisted``)."""
+    out = []
+    for _, r in summary.iterrows():
+        name = f"control: {r['what']}" if r["refinement"] in CONTROLS else r["what"]
+        fol = r.get("followed", pd.NA)
+        if not pd.isna(fol) and fol:
+            name += f"\nmoved, followed from the map:\nthe map's label {int(r['persisted'])}/{int(fol)}"
+        out.append(name)
+    return out
+
+
 def plot_convergence(runs: pd.DataFrame, summary: pd.DataFrame, grid_name: str, axes: list[str],
                      path: str, dpi: int = 130) -> None:
     """Left: per refinement, the fraction of sampled points whose label holds (bars, with
@@ -27,8 +41,10 @@ def plot_convergence(runs: pd.DataFrame, summary: pd.DataFrame, grid_name: str, 
     stratum-weighted estimate for the whole map (diamonds) and, with controls, the fraction
     among the robust points (circles: those whose label holds under every control) and, with
     the neighbour support, among the points whose label a grid neighbour shares (squares),
-    against :data:`HOLD_TARGET`.  Right: one row per sampled point, the map's label and the
-    label under each refinement (a changed label is crossed)."""
+    against :data:`HOLD_TARGET`; a model row whose moved labels were followed from the map's
+    attractor says in its tick label how many ended on the map's label (``persisted`` /
+    ``followed``).  Right: one row per sampled point, the map's label and the label under each
+    refinement (a changed label is crossed)."""
     refs = list(summary["refinement"])
     whats = list(summary["what"])
     points = runs.drop_duplicates("point_id")
@@ -55,7 +71,7 @@ def plot_convergence(runs: pd.DataFrame, summary: pd.DataFrame, grid_name: str, 
     for yi, (_, r), c in zip(y, summary.iterrows(), control):
         ax0.text(0.02, yi, f"{r['held']}/{r['n']}", va="center", fontsize=8, color="k" if c else "white")
     ax0.axvline(HOLD_TARGET, color="C3", ls="--", lw=1, label=f"target {HOLD_TARGET:.0%}")
-    ax0.set_yticks(y, [f"control: {w}" if c else w for w, c in zip(whats, control)])
+    ax0.set_yticks(y, row_labels(summary))
     ax0.invert_yaxis()
     ax0.set_xlim(0, 1.0)
     ax0.set_xlabel("fraction of points whose label holds")

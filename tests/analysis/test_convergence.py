@@ -13,6 +13,7 @@ import pandas as pd
 import pytest
 import yaml
 
+from analysis.figures.convergence import row_labels
 from analysis.pipeline.config import Numerics
 from analysis.pipeline.convergence import (
     CENSUS_LABELS,
@@ -448,6 +449,8 @@ def test_a_moved_model_label_is_followed_from_the_maps_attractor(tmp_path):
     assert pd.isna(summary.loc["step", "followed"])
     assert (f"ending on the map's label: {REFINEMENTS['k_t']} 0/1, {REFINEMENTS['modes']} 0/1"
             in summary_line(summary.reset_index()))
+    names = row_labels(summary.reset_index())  # the convergence figure's rows
+    assert names[0].endswith("the map's label 0/1") and names[2] == REFINEMENTS["step"]
 
 
 def test_neighbour_support_counts_axis_neighbours_with_the_same_label():
