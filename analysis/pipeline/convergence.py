@@ -78,8 +78,9 @@ import pandas as pd
 from analysis.pipeline.config import Numerics, as_numerics, check_keys
 from analysis.pipeline.grid import canonical_json, point_id
 
-__all__ = ["CENSUS_LABELS", "CONTROLS", "ConvergenceSettings", "LOAD_SHIFT", "NUDGE", "REFINEMENTS",
-           "REGULARISED_LAWS", "SEPARATION_FACTOR", "applies", "census_line", "convergence_runs",
+__all__ = ["CENSUS_LABELS", "CONTINUED", "CONTROLS", "ConvergenceSettings", "K_T_STEPS", "LOAD_SHIFT",
+           "NUDGE", "REFINEMENTS", "REGULARISED_LAWS", "SEPARATION_FACTOR", "applies", "census_line",
+           "continuation_path", "convergence_runs",
            "convergence_summary", "flagged", "grid_refinements", "held_interval", "label_text",
            "onto_locked", "refine",
            "reuses_reference_runs", "run_metadata", "same_label", "sample_points", "summary_line",

@@ -63,7 +63,8 @@ from analysis.pipeline.store import PointStore
 if TYPE_CHECKING:
     from analysis.pipeline.chaos_lifetime import LifetimeSettings
 
-__all__ = ["COST_MODEL_FILE", "Estimate", "LONG_RUN_SECONDS", "convergence_cells", "convergence_seconds",
+__all__ = ["COST_MODEL_FILE", "Estimate", "LONG_RUN_SECONDS", "MOVED_SHARE", "convergence_cells",
+           "convergence_seconds",
            "estimate_run", "lifetime_seconds", "load_cost_model", "multistability_seconds", "rk4_stiffness"]
 
 COST_MODEL_FILE = Path(__file__).with_name("cost_model.yaml")
