@@ -65,6 +65,15 @@ def carried_state(state: np.ndarray, src, dst, law: str) -> np.ndarray:
     return transfer_state(x, src, dst, law=law)
 
 
+def _carried_start(prev: np.ndarray, src, dst, law: str) -> dict:
+    """The initial-state parameters of a point of model ``dst`` started from ``prev``, an end
+    state of model ``src``: carried where :func:`carries` says so, ``{}`` (rest) where it is
+    not finite."""
+    if carries(src, dst, law):
+        prev = carried_state(prev, src, dst, law)
+    return state_params(prev, dst.n, dst.n_quad)
+
+
 def continuation_sweeps(points: Sequence[dict], numerics: Numerics | dict, *, axis: str,
                         threads: int = 2) -> pd.DataFrame:
     """Up- and down-sweep of ``points`` (parameter dicts in axis order).  Each point starts
@@ -106,11 +115,8 @@ def continuation_sweeps(points: Sequence[dict], numerics: Numerics | dict, *, ax
         ``k -> (start, point, record)``."""
         prev, prev_k, out = None, None, {}
         for k in order[b]:
-            md = models[k]
-            law = points[k].get("law", "stick-slip")
-            if prev is not None and carries(models[prev_k], md, law):
-                prev = carried_state(prev, models[prev_k], md, law)
-            init = {} if prev is None else state_params(prev, md.n, md.n_quad)
+            init = ({} if prev is None else
+                    _carried_start(prev, models[prev_k], models[k], points[k].get("law", "stick-slip")))
             p = {"point_id": f"{b}{k:05d}", "params": dict(points[k]) | init}
             rec = simulate_runs([p], nm, 1, patterns)[0]
             out[k] = ("continued" if init else "rest", p, rec)
@@ -167,10 +173,7 @@ def continue_from(state: np.ndarray, src, points: Sequence[dict], numerics: Nume
         raise ValueError("continue_from: no points, or a start state that is not finite")
     for k, params in enumerate(points):
         model = prepare_point(**params).model
-        law = params.get("law", "stick-slip")
-        if carries(prev_model, model, law):
-            prev = carried_state(prev, prev_model, model, law)
-        start = state_params(prev, model.n, model.n_quad)
+        start = _carried_start(prev, prev_model, model, params.get("law", "stick-slip"))
         if not start:
             raise ValueError(f"continue_from: point {k} has no finite start state")
         p = {"point_id": f"continued{k:05d}", "params": dict(params) | start}
