@@ -24,7 +24,14 @@ run share everything else; a grid runs the refinements that are knobs of its fri
 * ``band``: the velocity band ``eps_v`` of the regularised laws (``full-slip``, ``stribeck``:
   :data:`REGULARISED_LAWS`) halved (``eps_v`` where a point gives it, else ``eps_rel``), their
   interface's regularisation as ``k_t`` is the stick-slip law's;
-* ``modes``: one more arch mode in the Galerkin basis.
+* ``modes``: one more arch mode in the Galerkin basis;
+* ``long_run``: the map's own run, longer: each sampled point starts from the end state the
+  map's run stored and runs :data:`LONG_RUN_PERIODS` forcing periods before its record (the
+  transient's length, a knob that ``windows`` doubles only from rest, where the adaptive
+  transient stops at the first record that passes the transient tests); a label that moves
+  was read from a transient slower than those tests see (a creep of the slip locked into the
+  stuck elements, lasting thousands of periods: docs/pipeline.md, "Long runs from the map's
+  end states").
 
 A label that moves under a model refinement (``k_t``, ``modes``: :data:`CONTINUED`) is also
 followed from the map's attractor (:func:`continuation_path`): the map run's end state is
@@ -79,7 +86,8 @@ from analysis.pipeline.config import Numerics, as_numerics, check_keys
 from analysis.pipeline.grid import canonical_json, point_id
 
 __all__ = ["CENSUS_LABELS", "CONTINUED", "CONTROLS", "ConvergenceSettings", "K_T_STEPS", "LOAD_SHIFT",
-           "NUDGE", "REFINEMENTS", "REGULARISED_LAWS", "SEPARATION_FACTOR", "applies", "census_line",
+           "LONG_RUN_PERIODS", "NUDGE", "REFINEMENTS", "REGULARISED_LAWS", "SEPARATION_FACTOR", "applies",
+           "census_line",
            "continuation_path", "convergence_runs",
            "convergence_summary", "flagged", "grid_refinements", "held_interval", "label_text",
            "onto_locked", "refine",
@@ -95,6 +103,9 @@ LOAD_SHIFT = 0.02
 #: tolerance, about the state error of the reference integrator in one period
 NUDGE = 1e-9
 
+#: forcing periods the refinement ``long_run`` runs from the map run's end state before its record
+LONG_RUN_PERIODS = 4000
+
 #: refinement name -> what it changes (the figure's and the docs' wording)
 REFINEMENTS = {
     "step": "step / 2",
@@ -103,6 +114,7 @@ REFINEMENTS = {
     "k_t": "k_t x 3",
     "band": "eps_v / 2",
     "modes": "modes + 1",
+    "long_run": f"end state + {LONG_RUN_PERIODS} T",
     "load_up": f"load x {1 + LOAD_SHIFT:g}",
     "load_down": f"load / {1 + LOAD_SHIFT:g}",
     "nudge": f"load x (1 + {NUDGE:g})".replace("e-0", "e-"),  # 1e-9, not 1e-09
@@ -260,6 +272,9 @@ def refine(refinement: str, params: dict, numerics: Numerics | dict) -> tuple[di
                      n_record=2 * nm.n_record,
                      lyapunov=replace(ly, n_periods=2 * ly.n_periods, burn_in=2 * ly.burn_in,
                                       block_periods=2 * ly.block_periods))
+    elif refinement == "long_run":  # the start: the map's end state (convergence_runs)
+        nm = replace(nm, n_transient=LONG_RUN_PERIODS,
+                     n_transient_max=max(nm.n_transient_max, LONG_RUN_PERIODS))
     elif refinement == "separation":
         nm = replace(nm, lyapunov=replace(ly, expo_e0=ly.expo_e0 / SEPARATION_FACTOR,
                                           rk4_e0=ly.rk4_e0 / SEPARATION_FACTOR))
@@ -417,10 +432,12 @@ def convergence_runs(table: pd.DataFrame, refinement: str, numerics: Numerics | 
     base_nm = as_numerics(numerics)
     sample = sample_points(table, settings.sample, settings.seed, settings.census)
     base_support = supported(sample)
+    starts = _map_end_states(sample, base_nm, store_root, threads) if refinement == "long_run" else {}
     refined = []
     for _, row in sample.iterrows():
         base_params = json.loads(row["params_json"])
         params, nm = refine(refinement, base_params, base_nm)
+        params |= starts.get(point_id(base_params, base_nm), {})
         refined.append({"point_id": point_id(params, nm), "params": params, "numerics": nm,
                         "map_id": point_id(base_params, base_nm),
                         "reuse": reuses_reference_runs(base_params, base_nm, params, nm)})
@@ -477,6 +494,29 @@ def convergence_runs(table: pd.DataFrame, refinement: str, numerics: Numerics | 
         out[c] = out[c].astype("Int64")
     out["supported"] = out["supported"].astype("boolean")
     out["locked"] = out["locked"].astype("boolean")
+    return out
+
+
+def _map_end_states(sample: pd.DataFrame, nm: Numerics, store_root: str, threads: int) -> dict:
+    """Map point id -> the initial-state parameters (``q0``, ``v0``, ``z0``, ``mode0``, lists)
+    of a start from the end state of the map's run (its simulate record: from the store, or run
+    again, to the bit the same); none (rest) where that state is not finite (a diverged run)."""
+    from analysis.continuation import state_params
+    from analysis.pipeline.stages import simulate_points
+    from beamsim.simulate import prepare_point
+
+    pts = [{"point_id": point_id(p, nm), "params": p}
+           for p in (json.loads(js) for js in sample["params_json"])]
+    if not pts:
+        return {}
+    sim = simulate_points(pts, nm, store_root, threads).set_index("point_id")
+    out = {}
+    for p in pts:
+        end = np.asarray(sim.loc[p["point_id"], "final_state"], dtype=float)
+        if end.size and np.all(np.isfinite(end)):
+            model = prepare_point(**p["params"]).model
+            out[p["point_id"]] = {k: np.asarray(v, dtype=float).tolist()
+                                  for k, v in state_params(end, model.n, model.n_quad).items()}
     return out
 
 
@@ -537,7 +577,7 @@ def flagged(runs: pd.DataFrame, robust: pd.Series | None) -> np.ndarray:
 
 
 #: the refinements that keep the model (numerics only): the map's lock-up limit is theirs too
-SAME_MODEL = ("step", "windows", "separation")
+SAME_MODEL = ("step", "windows", "separation", "long_run")
 
 
 def onto_locked(runs: pd.DataFrame) -> np.ndarray:

@@ -17,6 +17,7 @@ from analysis.figures.convergence import row_labels
 from analysis.pipeline.config import Numerics
 from analysis.pipeline.convergence import (
     CENSUS_LABELS,
+    LONG_RUN_PERIODS,
     MAX_MODES,
     NUDGE,
     REFINEMENTS,
@@ -90,6 +91,9 @@ def test_each_refinement_changes_its_knob_only():
     for law in (*REGULARISED_LAWS, "rigid-stick"):  # k_t is no knob of theirs
         with pytest.raises(ValueError, match=f"'k_t'.*law {law}"):
             refine("k_t", POINT | {"law": law}, nm)
+    p, r = refine("long_run", POINT, nm)  # the transient; the start is the map's end state
+    assert p == POINT and r == replace(nm, n_transient=LONG_RUN_PERIODS,
+                                       n_transient_max=max(nm.n_transient_max, LONG_RUN_PERIODS))
     p, r = refine("load_up", POINT, nm)  # the controls: the load, not the numerics
     assert p == POINT | {"f0_rel": pytest.approx(0.3 * 1.02)} and r == nm
     p, r = refine("load_down", POINT, nm)
@@ -451,6 +455,54 @@ def test_a_moved_model_label_is_followed_from_the_maps_attractor(tmp_path):
             in summary_line(summary.reset_index()))
     names = row_labels(summary.reset_index())  # the convergence figure's rows
     assert names[0].endswith("the map's label 0/1") and names[2] == REFINEMENTS["step"]
+
+
+def test_the_long_run_continues_the_maps_own_run(tmp_path):
+    """``long_run`` starts each sampled point from the end state the map's run stored and runs
+    LONG_RUN_PERIODS periods before its record: its record is, to the bit, that of the simulate
+    stage run by hand from that state with the long transient (not from rest), and its id
+    contains the state.  On the
+    lightly damped stuck structure (0.2 % modal damping: one attractor, periodic-1) the long
+    run's label is periodic-1: it holds where the map says so, and moves where the map's label
+    is set by hand to quasi-periodic (as a record read during a slow creep is)."""
+    from analysis.continuation import state_params
+    from analysis.pipeline.stages import (
+        classify_points,
+        lle_resolution,
+        lyapunov_points,
+        simulate_points,
+        simulate_runs,
+    )
+    from analysis.pipeline.store import PointStore
+    from analysis.pipeline.table import assemble_regime_table
+    from beamsim.simulate import prepare_point
+
+    nm = Numerics(n_transient=80, n_record=128, n_transient_max=80)
+    point = POINT | {"damping": 0.002}
+    pts = [{"point_id": point_id(point, nm), "params": point, "index": [0]}]
+    sim = simulate_points(pts, nm, str(tmp_path), threads=2)
+    lyap = lyapunov_points(pts, sim, nm, str(tmp_path), threads=2)
+    table = assemble_regime_table(pts, sim, lyap, classify_points(sim, lyap, lle_resolution(nm)))
+    settings = ConvergenceSettings(sample=1)
+    held = convergence_runs(table, "long_run", nm, settings, str(tmp_path), axes=["f0_rel"], threads=2)
+    moved = convergence_runs(table.assign(label="quasi-periodic", period=pd.array([None], dtype="Int64")),
+                             "long_run", nm, settings, str(tmp_path), axes=["f0_rel"], threads=2)
+    for runs, holds in ((held, True), (moved, False)):
+        r = runs.iloc[0]
+        assert (r["refined_label"], r["refined_period"]) == ("periodic", 1), r["refined_reason"]
+        assert bool(r["holds"]) == holds
+    end = sim["final_state"].iloc[0]
+    model = prepare_point(**point).model
+    start = {k: np.asarray(v).tolist() for k, v in state_params(end, model.n, model.n_quad).items()}
+    params, long_nm = refine("long_run", point, nm)
+    rid = held["refined_point_id"].iloc[0]
+    assert rid == moved["refined_point_id"].iloc[0] == point_id(params | start, long_nm)
+    stored = PointStore(str(tmp_path), "simulate").load(rid)
+    assert stored["n_transient_used"] >= LONG_RUN_PERIODS
+    from_end, from_rest = (simulate_runs([{"point_id": "x", "params": p}], long_nm, 1)[0]["poincare_state"]
+                           for p in (point | start, point))
+    np.testing.assert_array_equal(stored["poincare_state"], from_end)
+    assert np.any(stored["poincare_state"] != from_rest)
 
 
 def test_neighbour_support_counts_axis_neighbours_with_the_same_label():
