@@ -14,8 +14,9 @@ the Lyapunov record and the classifier, with the run's numerics).  It reports, p
 map's label and the label after the long run, whether the long run ended with every element
 slipping (``stuck_end``: no friction work in its last ``TAIL`` periods), the creep of the
 mean tip deflection over the long run (the change of the Poincare samples' mean from its first
-``BLOCK`` periods to its last, over the tip's amplitude in the last ``TAIL`` periods: half the
-range of a dense history of ``DENSE`` samples per period) and whether the creep had stopped
+``BLOCK`` periods to its last, over the tip's amplitude: half the range of a dense history of
+``DENSE`` samples per period over ``TAIL`` more periods from the long run's end, a run of its
+own, since a dense history sets the integrator's steps) and whether the creep had stopped
 (the last two blocks' means within ``1e-3`` of that amplitude); and per map label, how many
 labels held.
 
@@ -80,12 +81,16 @@ def long_runs(cells: pd.DataFrame, store: PointStore, numerics, periods: int, th
         mine = [j for j in jobs if j[1]["method"] == method]
         for k in range(0, len(mine), BATCH):
             part = mine[k:k + BATCH]
-            b = simulate_batch([j[4] for j in part], n_transient=0, n_record=periods, method=method,
-                               step_factor=numerics.step_factor, n_threads=threads,
-                               dense_per_period=DENSE)
-            for (i, row, params, model, _), res in zip(part, b.results):
+            kw = dict(method=method, step_factor=numerics.step_factor, n_threads=threads)
+            b = simulate_batch([j[4] for j in part], n_transient=0, n_record=periods, **kw)
+            # the tip's amplitude: TAIL more periods with a dense history (a run of its own: a
+            # dense history sets the integrator's steps, and the long run is on the map's)
+            ends = [j[4] if res.diverged else state_params(j[2], res.final_state, j[3].n)
+                    for j, res in zip(part, b.results)]
+            dense = simulate_batch(ends, n_transient=0, n_record=TAIL, dense_per_period=DENSE, **kw)
+            for (i, row, params, model, _), res, tail in zip(part, b.results, dense.results):
                 w = res.poincare_tip[1:, 0]
-                amp = float(np.ptp(res.dense[-TAIL * DENSE:, 0])) / 2
+                amp = float(np.ptp(tail.dense[:, 0])) / 2
                 means = w[: periods // BLOCK * BLOCK].reshape(-1, BLOCK).mean(axis=1)
                 out.append({"index": i, "params": params, "model": model, "state": res.final_state,
                             "diverged": res.diverged, "drift": float(means[-1] - means[0]) / amp,

@@ -383,6 +383,18 @@ def test_settings_defaults_are_the_shipped_config_and_bad_values_are_refused():
     assert ConvergenceSettings().as_dict() == {"sample": 20, "seed": 0}
 
 
+def _one_point_map(point: dict, nm: Numerics, store) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    """The regime table of a one-point map through the pipeline's stages (store ``store``),
+    with its simulate and Lyapunov records."""
+    from analysis.pipeline.stages import classify_points, lle_resolution, lyapunov_points, simulate_points
+    from analysis.pipeline.table import assemble_regime_table
+
+    pts = [{"point_id": point_id(point, nm), "params": point, "index": [0]}]
+    sim = simulate_points(pts, nm, str(store), threads=2)
+    lyap = lyapunov_points(pts, sim, nm, str(store), threads=2)
+    return assemble_regime_table(pts, sim, lyap, classify_points(sim, lyap, lle_resolution(nm))), sim, lyap
+
+
 def test_a_linear_point_keeps_its_label_under_every_refinement(tmp_path):
     """A limit with a known answer: below the slip onset (f0_rel 0.3: the peak tip load 0.6 of
     the static slip load) every Jenkins element stays stuck and, with 10 % modal damping, the
@@ -393,15 +405,9 @@ def test_a_linear_point_keeps_its_label_under_every_refinement(tmp_path):
     transient cut short -- fails this.)  Without the damping the stuck beam's free vibration
     never decays and the same point is a torus (quasi-periodic), which is not a test of the
     refinements but of the start."""
-    from analysis.pipeline.stages import classify_points, lle_resolution, lyapunov_points, simulate_points
-    from analysis.pipeline.table import assemble_regime_table
-
     nm = Numerics(n_transient=80, n_record=128, n_transient_max=80)  # 40: the decay still shows
     point = POINT | {"damping": 0.1}
-    pts = [{"point_id": point_id(point, nm), "params": point, "index": [0]}]
-    sim = simulate_points(pts, nm, str(tmp_path), threads=2)
-    lyap = lyapunov_points(pts, sim, nm, str(tmp_path), threads=2)
-    table = assemble_regime_table(pts, sim, lyap, classify_points(sim, lyap, lle_resolution(nm)))
+    table, sim, lyap = _one_point_map(point, nm, tmp_path)
     assert table["label"].iloc[0] == "periodic" and not table["slipped"].iloc[0]
     settings = ConvergenceSettings(sample=1)
     for ref in grid_refinements(REFINEMENTS, [point], "g"):  # every knob of the stick-slip law
@@ -423,15 +429,10 @@ def test_a_moved_model_label_is_followed_from_the_maps_attractor(tmp_path):
     continued label is the refined one, periodic-1.  The map's label is set to chaotic by hand
     so that it "moves"; a label that holds is not followed (NA)."""
     from analysis.pipeline.convergence import K_T_STEPS, continuation_path
-    from analysis.pipeline.stages import classify_points, lle_resolution, lyapunov_points, simulate_points
-    from analysis.pipeline.table import assemble_regime_table
 
     nm = Numerics(n_transient=80, n_record=128, n_transient_max=80)
     point = POINT | {"damping": 0.1}
-    pts = [{"point_id": point_id(point, nm), "params": point, "index": [0]}]
-    sim = simulate_points(pts, nm, str(tmp_path), threads=2)
-    lyap = lyapunov_points(pts, sim, nm, str(tmp_path), threads=2)
-    table = assemble_regime_table(pts, sim, lyap, classify_points(sim, lyap, lle_resolution(nm)))
+    table, sim, lyap = _one_point_map(point, nm, tmp_path)
     settings = ConvergenceSettings(sample=1)
     path = continuation_path("k_t", point, refine("k_t", point, nm)[0])
     assert len(path) == K_T_STEPS and path[-1]["k_t"] == 3 * point["k_t"]
@@ -466,23 +467,13 @@ def test_the_long_run_continues_the_maps_own_run(tmp_path):
     run's label is periodic-1: it holds where the map says so, and moves where the map's label
     is set by hand to quasi-periodic (as a record read during a slow creep is)."""
     from analysis.continuation import state_params
-    from analysis.pipeline.stages import (
-        classify_points,
-        lle_resolution,
-        lyapunov_points,
-        simulate_points,
-        simulate_runs,
-    )
+    from analysis.pipeline.stages import simulate_runs
     from analysis.pipeline.store import PointStore
-    from analysis.pipeline.table import assemble_regime_table
     from beamsim.simulate import prepare_point
 
     nm = Numerics(n_transient=80, n_record=128, n_transient_max=80)
     point = POINT | {"damping": 0.002}
-    pts = [{"point_id": point_id(point, nm), "params": point, "index": [0]}]
-    sim = simulate_points(pts, nm, str(tmp_path), threads=2)
-    lyap = lyapunov_points(pts, sim, nm, str(tmp_path), threads=2)
-    table = assemble_regime_table(pts, sim, lyap, classify_points(sim, lyap, lle_resolution(nm)))
+    table, sim, lyap = _one_point_map(point, nm, tmp_path)
     settings = ConvergenceSettings(sample=1)
     held = convergence_runs(table, "long_run", nm, settings, str(tmp_path), axes=["f0_rel"], threads=2)
     moved = convergence_runs(table.assign(label="quasi-periodic", period=pd.array([None], dtype="Int64")),
@@ -604,23 +595,18 @@ def test_the_separation_row_reads_the_maps_reference_runs_and_moves_only_the_cop
     separation (a dynamical exponent is its limit of vanishing separation): the label,
     periodic-1 with about half the record's samples slipping, holds, and the two window values
     agree within the Lyapunov margin."""
-    from analysis.pipeline.stages import classify_points, lle_resolution, lyapunov_points, simulate_points
     from analysis.pipeline.store import PointStore
-    from analysis.pipeline.table import assemble_regime_table
 
     nm = Numerics(n_transient=60, n_record=128, n_transient_max=60)
     point = {"n_modes": 1, "k_t": 10.0, "mu_s": mu_s, "mu_k": 0.3, "Omega": 2.5, "f0_rel": 4.0,
              "damping": 0.05}
-    pts = [{"point_id": point_id(point, nm), "params": point, "index": [0]}]
-    sim = simulate_points(pts, nm, str(tmp_path), threads=2)
-    lyap = lyapunov_points(pts, sim, nm, str(tmp_path), threads=2)
-    table = assemble_regime_table(pts, sim, lyap, classify_points(sim, lyap, lle_resolution(nm)))
+    table, sim, lyap = _one_point_map(point, nm, tmp_path)
     assert table["label"].iloc[0] == "periodic" and table["period"].iloc[0] == 1
     assert 0.3 < sim["stick_fraction"].iloc[0] < 0.7 and lyap["lle_free_copy"].iloc[0] == free
     runs = convergence_runs(table, "separation", nm, ConvergenceSettings(sample=1), str(tmp_path),
                             threads=2)
     rid = runs["refined_point_id"].iloc[0]
-    assert rid != pts[0]["point_id"]
+    assert rid != table["point_id"].iloc[0]
     assert not PointStore(str(tmp_path), "simulate").has(rid)
     refined = PointStore(str(tmp_path), "lyapunov").load(rid)
     assert refined["lle_free_copy"] == free
