@@ -26,8 +26,9 @@ Cells: every cell of the ``--all`` labels (default chaotic, quasi-periodic, unse
     .venv/bin/python benchmarks/long_runs.py --run <a finished run's working directory>
     .venv/bin/python benchmarks/long_runs.py --run ... --periods 4000 --sample 10
 
-Needs a finished run (``snakemake -c2 regimes``) with its store.  About 8 min for 95 cells at
-8000 periods and 6 more for their classification on two threads (znver3).  Results:
+Needs a finished run (``snakemake -c2 regimes``) with its store.  On two threads (znver3) the
+default map's 95 cells took 6.5 min of long runs at 8000 periods and 3 min more to classify
+them.  Results:
 docs/pipeline.md, "Long runs from the map's end states".
 """
 

@@ -425,6 +425,8 @@ def convergence_runs(table: pd.DataFrame, refinement: str, numerics: Numerics | 
     (:data:`CONTINUED`), the refined model's label reached from the map run's stored end state
     along :func:`continuation_path` (:func:`analysis.continuation.continue_from`; NA for other
     rows, or where the end state is not in the store, not finite, or cannot be carried).
+    Under ``long_run`` each refined point starts from the map run's end state
+    (:func:`_map_end_states`), which its id then contains.
     """
     from analysis.pipeline.neighbours import supported
     from analysis.pipeline.stages import classify_points, lle_resolution, lyapunov_points, simulate_points
