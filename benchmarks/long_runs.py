@@ -3,7 +3,7 @@
 The map labels a cell from a record that starts after the adaptive transient (at most
 ``numerics.n_transient_max`` periods) and passed the transient tests and the continuation check
 (docs/classification.md).  A creep too slow for those tests -- the mean deflection, i.e. the slip
-locked into the stuck elements, changing by a fraction of a percent of the spread per record
+locked into the stuck elements, changing by a few percent of the spread per record
 (docs/classification.md, "Record length: what the conflicts are") -- passes them.  This runs
 each selected cell on from the end state the map run stored (``results/store``; the forcing's
 phase is kept: every run ends on a period boundary) for ``--periods`` forcing periods on the
@@ -12,7 +12,7 @@ step, then through the pipeline's own stages from there
 (:func:`analysis.continuation.continue_from`: the adaptive transient, the continuation check,
 the Lyapunov record and the classifier, with the run's numerics).  It reports, per cell, the
 map's label and the label after the long run, whether the long run ended with every element
-slipping (``stuck_end``: no friction work in its last ``TAIL`` periods), the creep of the
+stuck (``stuck_end``: no friction work in its last ``TAIL`` periods), the creep of the
 mean tip deflection over the long run (the change of the Poincare samples' mean from its first
 ``BLOCK`` periods to its last, over the tip's amplitude: half the range of a dense history of
 ``DENSE`` samples per period over ``TAIL`` more periods from the long run's end, a run of its
@@ -68,7 +68,8 @@ def select(table: pd.DataFrame, every: list[str], sample: int, seed: int = 0) ->
 
 
 def long_runs(cells: pd.DataFrame, store: PointStore, numerics, periods: int, threads: int) -> list[dict]:
-    """Run each cell on from its stored end state by ``periods``: its creep and end state."""
+    """Run each cell on from its stored end state by ``periods``: its creep and end state (a
+    cell without a stored end state is left out)."""
     jobs = []
     for i, row in cells.iterrows():
         rec = store.find(row["point_id"])
@@ -139,7 +140,8 @@ def main() -> None:
     with pd.option_context(*show):
         print(out.to_string(index=False))
     print(f"\n{len(out)} cells, {a.periods} periods each: {t_run:.0f} s, classified after "
-          f"{time.perf_counter() - t0 - t_run:.0f} s more")
+          f"{time.perf_counter() - t0 - t_run:.0f} s more; {len(cells) - len(out)} selected cells "
+          "without an end state in the store (left out)")
     regime = out["map"].str.replace(r"-\d+$", "", regex=True)
     out["group"] = np.where(out["conflict"], "undetermined (CONFLICT)", regime)
     for name, g in out.groupby("group"):
