@@ -462,10 +462,10 @@ def test_the_long_run_continues_the_maps_own_run(tmp_path):
     """``long_run`` starts each sampled point from the end state the map's run stored and runs
     LONG_RUN_PERIODS periods before its record: its record is, to the bit, that of the simulate
     stage run by hand from that state with the long transient (not from rest), and its id
-    contains the state.  On the
-    lightly damped stuck structure (0.2 % modal damping: one attractor, periodic-1) the long
-    run's label is periodic-1: it holds where the map says so, and moves where the map's label
-    is set by hand to quasi-periodic (as a record read during a slow creep is)."""
+    contains the state.  On the lightly damped stuck structure (0.2 % modal damping, below the
+    shakedown limit: one attractor, periodic-1) the long run's label is periodic-1: it holds
+    where the map says so, and moves where the map's label is set by hand to quasi-periodic (as
+    a record read during a slow creep is)."""
     from analysis.continuation import state_params
     from analysis.pipeline.stages import simulate_runs
     from analysis.pipeline.store import PointStore
