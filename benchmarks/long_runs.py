@@ -45,6 +45,7 @@ import yaml
 
 from analysis.continuation import continue_from
 from analysis.pipeline.config import as_numerics
+from analysis.pipeline.convergence import label_text
 from analysis.pipeline.stages import lle_resolution
 from analysis.pipeline.store import PointStore
 from beamsim.simulate import prepare_point, simulate_batch, state_params
@@ -129,9 +130,9 @@ def main() -> None:
                                   lle_threshold=lle_resolution(numerics), threads=a.threads)
         T = 2.0 * np.pi / row["omega"]
         rows.append({"Omega": row["Omega"], "f0_rel": row["f0_rel"],
-                     "map": _name(row["label"], row["period"]),
+                     "map": label_text(row["label"], row["period"]),
                      "lle_T": row["lle_mean"] * T, "lock_ratio": row["lock_ratio"],
-                     "after": _name(after["label"], after["period"]),
+                     "after": label_text(after["label"], after["period"]),
                      "after_lle_T": after.get("lle_mean", np.nan) * T,
                      "stuck_end": r["stuck_end"], "drift": r["drift"], "stopped": r["stopped"],
                      "conflict": "CONFLICT" in str(row["reason"])})
@@ -150,10 +151,6 @@ def main() -> None:
         print(f"{name}: {held}/{len(g)} held; stuck at the end {int(g['stuck_end'].sum())}; creep stopped "
               f"{int(g['stopped'].sum())}; |drift| median {g['drift'].abs().median():.3g}; moves: "
               + ", ".join(f"{k} {v}" for k, v in moves.value_counts().items()))
-
-
-def _name(label: str, period) -> str:
-    return label if pd.isna(period) else f"{label}-{int(period)}"
 
 
 if __name__ == "__main__":

@@ -438,11 +438,11 @@ def convergence_runs(table: pd.DataFrame, refinement: str, numerics: Numerics | 
     refined = []
     for _, row in sample.iterrows():
         base_params = json.loads(row["params_json"])
+        map_id = point_id(base_params, base_nm)
         params, nm = refine(refinement, base_params, base_nm)
-        params |= starts.get(point_id(base_params, base_nm), {})
+        params |= starts.get(map_id, {})
         refined.append({"point_id": point_id(params, nm), "params": params, "numerics": nm,
-                        "map_id": point_id(base_params, base_nm),
-                        "reuse": reuses_reference_runs(base_params, base_nm, params, nm)})
+                        "map_id": map_id, "reuse": reuses_reference_runs(base_params, base_nm, params, nm)})
     # one pass of the stages per distinct numerics (a refined step can differ by law)
     labels: dict = {}
     groups: dict = {}
@@ -514,11 +514,9 @@ def _map_end_states(sample: pd.DataFrame, nm: Numerics, store_root: str, threads
     sim = simulate_points(pts, nm, store_root, threads).set_index("point_id")
     out = {}
     for p in pts:
-        end = np.asarray(sim.loc[p["point_id"], "final_state"], dtype=float)
-        if end.size and np.all(np.isfinite(end)):
-            model = prepare_point(**p["params"]).model
-            out[p["point_id"]] = {k: np.asarray(v, dtype=float).tolist()
-                                  for k, v in state_params(end, model.n, model.n_quad).items()}
+        model = prepare_point(**p["params"]).model
+        start = state_params(sim.loc[p["point_id"], "final_state"], model.n, model.n_quad)  # {}: rest
+        out[p["point_id"]] = {k: v.tolist() for k, v in start.items()}
     return out
 
 
