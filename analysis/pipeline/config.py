@@ -148,6 +148,15 @@ class Numerics:
         periods after the cap, and a check runs even when ``n_transient_max == n_transient``);
         a point whose last check failed is ``unsettled``; a check run that diverges makes the
         point ``diverged``.
+    n_long_transient : the long run (0: none): a record that leaves those tests aperiodic (no
+        period in its Poincare samples, :func:`analysis.regimes.poincare_signature`) or unsettled
+        (still a transient at the cap, or its last continuation check failed) while its
+        elements slip (not every one stuck) above the shakedown limit is run on once from its
+        end state by ``n_long_transient`` periods and a fresh record of ``n_record``, which
+        goes through the adaptive transient (with the budget of a run from rest,
+        ``n_transient_max - n_transient`` periods more) and the continuation check again; the
+        later record is kept (the slip locked into the stuck elements creeps for thousands of
+        periods: docs/pipeline.md, "Long runs from the map's end states").
     chunk_size : grid points per job (not part of a point's id).
     """
 
@@ -158,6 +167,7 @@ class Numerics:
     n_record: int = 256
     n_transient_max: int = 2400
     continuation_check: bool = True
+    n_long_transient: int = 4000
     chunk_size: int = 100
     lyapunov: LyapunovNumerics = field(default_factory=LyapunovNumerics)
 

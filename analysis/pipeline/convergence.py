@@ -31,7 +31,9 @@ run share everything else; a grid runs the refinements that are knobs of its fri
   transient stops at the first record that passes the transient tests); a label that moves
   was read from a transient slower than those tests see (a creep of the slip locked into the
   stuck elements, lasting thousands of periods: docs/pipeline.md, "Long runs from the map's
-  end states").
+  end states").  Where the map's record came after its own long run
+  (``numerics.n_long_transient``) this row runs on by as much again; it has no long run of its
+  own.
 
 A label that moves under a model refinement (``k_t``, ``modes``: :data:`CONTINUED`) is also
 followed from the map's attractor (:func:`continuation_path`): the map run's end state is
@@ -273,7 +275,8 @@ def refine(refinement: str, params: dict, numerics: Numerics | dict) -> tuple[di
                      lyapunov=replace(ly, n_periods=2 * ly.n_periods, burn_in=2 * ly.burn_in,
                                       block_periods=2 * ly.block_periods))
     elif refinement == "long_run":  # the start: the map's end state (convergence_runs)
-        nm = replace(nm, n_transient=LONG_RUN_PERIODS,
+        # the row is itself the long run: no second one (numerics.n_long_transient) after it
+        nm = replace(nm, n_transient=LONG_RUN_PERIODS, n_long_transient=0,
                      n_transient_max=max(nm.n_transient_max, LONG_RUN_PERIODS))
     elif refinement == "separation":
         nm = replace(nm, lyapunov=replace(ly, expo_e0=ly.expo_e0 / SEPARATION_FACTOR,

@@ -16,6 +16,8 @@ The estimate is a cost model, ``seconds = c * periods / Omega``, per stage and p
   expected share :data:`EXTENDED_SHARE` of the points;
 * the continuation check (``numerics.continuation_check``) adds ``n_record`` periods to every
   point (the checks that fail and run again are not in the estimate);
+* the long run (``numerics.n_long_transient``) adds ``n_long_transient + n_record`` periods (and
+  a check's ``n_record``) to the expected share :data:`LONG_TRANSIENT_SHARE` of the points;
 * the convergence runs (:mod:`analysis.pipeline.convergence`; :func:`convergence_seconds`):
   per grid and pending refinement, the sample size (with a census, :func:`convergence_cells`,
   the expected cells of its labels, :data:`LABEL_SHARE`, added) times the mean estimate of the
@@ -81,6 +83,10 @@ LONG_RECORD_SHARE = 1.0 / 3.0
 LONG_RECORD_REACH = {"obrien-fleming": 0.61, "pocock": 0.61, "none": 0.33}
 #: expected share of points the adaptive transient continues (default grid: 0.29)
 EXTENDED_SHARE = 0.3
+#: expected share of points that have the long run (aperiodic or unsettled after the adaptive
+#: transient; results version 27's znver3 default map: chaotic, quasi-periodic and unsettled
+#: 55 of 400, with the undetermined ones whose records are aperiodic about 0.2)
+LONG_TRANSIENT_SHARE = 0.2
 #: expected share of a cell's extra starts that reach an attractor of their own (each then
 #: needs a Lyapunov run; default grid: 100 of 192, docs/pipeline.md)
 NEW_ATTRACTOR_SHARE = 0.5
@@ -212,6 +218,9 @@ def point_seconds(params: Mapping, numerics: Numerics, model: Mapping, stages: I
             run *= 1.0 + EXTENDED_SHARE
         if numerics.continuation_check:  # every settled record is continued once
             run += numerics.n_record
+        if numerics.n_long_transient:
+            check = numerics.n_record if numerics.continuation_check else 0
+            run += LONG_TRANSIENT_SHARE * (numerics.n_long_transient + numerics.n_record + check)
         seconds += c * run * scale / omega
     if "lyapunov" in stages:
         ly = numerics.lyapunov

@@ -157,13 +157,11 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
     last one, ``n_transient_used`` says after how many periods it starts.
 
     Shakedown: a record that slips (``stick_fraction`` below 1) at a point below its shakedown
-    limit (:func:`locked_ratios`: every motion there slips a finite total distance,
-    :func:`beamsim.shakedown.locked_orbit`) is a transient too, continued in the same way; the
-    record carries the point's ``shakedown_ratio``.  The rule holds for exact motions of the
-    model, so it is checked on the runs themselves (:class:`ShakedownWatch`): where the energy
-    of the difference from the locked orbit grows from one run's end to the next, the record
-    is not continued and carries the reason (``shakedown_trouble``), which makes it
-    ``unsettled`` (:func:`unsettled_reason`) instead of labelled by the theorem.
+    limit (:func:`locked_ratios`: every motion there slips a finite total distance) is a
+    transient too, continued in the same way; the record carries the point's
+    ``shakedown_ratio``.  Where the runs are not motions of the model (:class:`ShakedownWatch`)
+    the record is not continued and carries the reason (``shakedown_trouble``: ``unsettled``,
+    :func:`unsettled_reason`, instead of labelled by the theorem).
 
     Continuation check (``nm.continuation_check``): a record that passes those tests and starts
     within ``n_transient_max`` periods is continued by ``n_record`` periods (no transient); the
@@ -175,6 +173,11 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
     ``continuation_reason`` of the record is the last failed check's reason (``""`` when the
     last check passed or none ran): :func:`unsettled_reason` reads it.  A point's continuation
     depends on its own records only (same result in any batch).
+
+    Long run (``nm.n_long_transient`` periods, 0: none): a point not below its shakedown limit that
+    those tests are done with, whose record :func:`long_run_due`, is run on once from its end
+    state by that many periods and a fresh record, tested and checked as above with the budget
+    of a run from rest (``n_transient_max - n_transient`` periods more); ``long_run`` says so.
 
     Zeno fallback: a point whose ``expo`` runs met ``expo``'s Zeno guard (a stick/slip switch
     cascade cut short and the state put on the step end: a jump in time,
@@ -202,19 +205,26 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
     checked = [not nm.continuation_check] * len(points)  # the record passed a continuation check
     why_continued = [""] * len(points)
     done = [False] * len(points)  # next_run said None: the point's record is final
+    cap = [nm.n_transient_max] * len(points)  # moved on by the long run
+    long_run = [False] * len(points)
 
     def next_run(i: int) -> str | None:
-        """``"transient"``, ``"check"`` or ``None`` (the point is done)."""
+        """``"transient"``, ``"check"``, ``"long"`` or ``None`` (the point is done)."""
         r = results[i]
         x = r.poincare_state
         if r.diverged or not np.all(np.isfinite(x)):
             return None
         if watch.trouble[i]:
             return None
-        if transient_reason(x) is not None or (r.stick_fraction < 1.0 and kinetic[i] < 1.0):
-            fits = used[i] + nm.n_record + nm.n_transient <= nm.n_transient_max
-            return "transient" if fits else None
-        return None if checked[i] or used[i] > nm.n_transient_max else "check"
+        slipping_below = r.stick_fraction < 1.0 and kinetic[i] < 1.0
+        transient = slipping_below or transient_reason(x) is not None
+        if transient and used[i] + nm.n_record + nm.n_transient <= cap[i]:
+            return "transient"
+        if not transient and not checked[i] and used[i] <= cap[i]:
+            return "check"
+        if long_run[i] or nm.n_long_transient == 0 or slipping_below:
+            return None
+        return "long" if long_run_due(r, points[i]["params"], transient, checked[i]) else None
 
     def pending() -> list[tuple[int, str]]:
         """The points that run again and how; a point found done stays done (its record is
@@ -228,7 +238,7 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
         return out
 
     while todo := pending():
-        for kind, n_tr in (("transient", nm.n_transient), ("check", 0)):
+        for kind, n_tr in (("transient", nm.n_transient), ("check", 0), ("long", nm.n_long_transient)):
             idx = [i for i, k in todo if k == kind]
             if not idx:
                 continue
@@ -242,22 +252,49 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
                     why_continued[i], checked[i] = why or "", why is None
                 else:  # a new record after a transient: not checked yet
                     why_continued[i], checked[i] = "", not nm.continuation_check
+                if kind == "long":  # then the budget of a run from rest's adaptive transient
+                    long_run[i] = True
+                    cap[i] = used[i] + nm.n_record + n_tr + nm.n_transient_max - nm.n_transient
                 used[i] += nm.n_record + n_tr
                 t_start[i] = t0
                 results[i] = r
                 zeno[i] += r.n_zeno
                 watch.ran(i, None if r.diverged else r.final_state)
-    redo = [i for i, z in enumerate(zeno) if z > 0]
-    fallback: dict[int, dict] = {}
-    if redo:
-        log.info("expo met its Zeno guard at %d point(s) (%s steps): run on RK4",
-                 len(redo), [zeno[i] for i in redo])
-        rk4 = replace(nm, method="rk4", steps_per_period=None)
-        fallback = dict(zip(redo, simulate_runs([points[i] for i in redo], rk4, threads)))
+    fallback = _zeno_fallback(points, zeno, nm, threads)
     return [fallback[i] | {"method": ZENO_FALLBACK} if i in fallback else
-            _simulate_record(r, n_tr, t_run, first, why, kin, trouble)
-            for i, (r, n_tr, t_run, first, why, kin, trouble) in enumerate(
-                zip(results, used, t_start, first_slip, why_continued, kinetic, watch.trouble))]
+            _simulate_record(r, n_tr, t_run, first, why, kin, trouble) | {"long_run": ran_long}
+            for i, (r, n_tr, t_run, first, why, kin, trouble, ran_long) in enumerate(
+                zip(results, used, t_start, first_slip, why_continued, kinetic, watch.trouble, long_run))]
+
+
+def _zeno_fallback(points: list[dict], zeno: Sequence[int], nm: Numerics, threads: int) -> dict[int, dict]:
+    """The records, by position in ``points``, of the points whose ``expo`` runs met the Zeno
+    guard (``zeno``: steps it ended, per point) run again, all of it, on RK4 (:func:`simulate_runs`)."""
+    redo = [i for i, z in enumerate(zeno) if z > 0]
+    if not redo:
+        return {}
+    log.info("expo met its Zeno guard at %d point(s) (%s steps): run on RK4", len(redo),
+             [zeno[i] for i in redo])
+    rk4 = replace(nm, method="rk4", steps_per_period=None)
+    return dict(zip(redo, simulate_runs([points[i] for i in redo], rk4, threads)))
+
+
+def long_run_due(r, params: dict, transient: bool, checked: bool) -> bool:
+    """Whether the record of run ``r`` (a ``SimResult`` at ``params``), which the adaptive
+    transient and the continuation check of :func:`simulate_runs` are done with, is one the
+    long run follows: a record still a transient (``transient``: at the cap) or whose last check
+    failed (not ``checked``), the map's ``unsettled``, or one without a period in its Poincare
+    samples (:func:`analysis.regimes.poincare_signature`; a record too short for the period
+    test, fewer than :data:`analysis.regimes.MIN_SAMPLES` samples, shows none); not a record
+    in which every element of a sticking law stays stuck, which the linear analysis labels
+    (:func:`classify_points`)."""
+    from analysis.regimes import MIN_SAMPLES, poincare_signature
+    from beamsim.friction import STICKING_LAWS
+
+    if params.get("law", "stick-slip") in STICKING_LAWS and r.stick_fraction >= 1.0:
+        return False
+    x = r.poincare_state
+    return transient or not checked or len(x) < MIN_SAMPLES or poincare_signature(x) == "aperiodic"
 
 
 #: the relative growth of ``W`` (:func:`beamsim.shakedown.difference_energy`) over one run that

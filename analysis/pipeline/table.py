@@ -21,8 +21,8 @@ __all__ = ["TABLE_COLUMNS", "assemble_regime_table", "index_columns", "lock_rati
 TABLE_COLUMNS = (
     "point_id", "label", "period", "lle_mean", "lle_se", "lle_lo", "lle_hi", "lle_periods",
     "lle_verdict", "lle_blocks", "lle_stefanski", "lle_benettin", "lle_nolds",
-    "lle_stefanski_lo", "lle_stefanski_hi", "n_transient_used", "K", "spectral_growth", "n_clusters",
-    "slipped",
+    "lle_stefanski_lo", "lle_stefanski_hi", "n_transient_used", "long_run", "K", "spectral_growth",
+    "n_clusters", "slipped",
     "t_first_slip", "stick_fraction", "diss_per_cycle", "f0", "f_cr", "omega", "Omega", "lam_f",
     "diverged", "settled", "energy_residual_rel", "lle_stefanski_verdict", "method", "lle_free_copy",
     "stuck_bound", "lle_expo_mean", "lle_expo_lo", "lle_expo_hi", "lle_expo_floor", "reason",

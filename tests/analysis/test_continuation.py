@@ -13,7 +13,8 @@ from analysis.pipeline.stages import simulate_runs
 
 #: stuck (f0_rel well below the slip onset) and damped: a linear structure under a harmonic load
 LINEAR = {"n_modes": 2, "mu_s": 0.45, "mu_k": 0.3, "interface_damping": 0.5, "damping": 0.1, "Omega": 2.5}
-NUMERICS = Numerics(n_transient=80, n_record=128, n_transient_max=80)
+# short transients and no long run: the continuation's bookkeeping, not the points' attractors
+NUMERICS = Numerics(n_transient=80, n_record=128, n_transient_max=80, n_long_transient=0)
 
 
 @pytest.fixture(scope="module")
@@ -41,7 +42,7 @@ def test_a_continued_point_starts_from_its_neighbours_end_state():
     point's final state (coordinates, velocities, slips and stick flags), and differs from
     its start from rest (the beam is undamped here: the start is remembered)."""
     pts = [LINEAR | {"damping": 0.0, "f0_rel": f} for f in (0.5, 0.6)]
-    nm = Numerics(n_transient=10, n_record=128, n_transient_max=10)
+    nm = Numerics(n_transient=10, n_record=128, n_transient_max=10, n_long_transient=0)
     t = continuation_sweeps(pts, nm, axis="f0_rel", threads=2)
     first = simulate_runs([{"point_id": "a", "params": pts[0]}], nm, 1)[0]
     from beamsim.simulate import prepare_point
@@ -92,7 +93,7 @@ def test_a_line_along_the_mode_count_carries_each_end_state_into_the_next_basis(
     from beamsim.state_transfer import transfer_state
 
     pts = [LINEAR | {"damping": 0.0, "f0_rel": 0.5, "n_modes": n} for n in (2, 3)]
-    nm = Numerics(n_transient=10, n_record=128, n_transient_max=10)
+    nm = Numerics(n_transient=10, n_record=128, n_transient_max=10, n_long_transient=0)
     t = continuation_sweeps(pts, nm, axis="n_modes", threads=2)
     starts = dict(zip(zip(t["branch"], t["k"]), t["start"]))
     assert starts == {("up", 0): "rest", ("up", 1): "continued",
@@ -123,7 +124,7 @@ def test_a_line_along_the_stick_stiffness_keeps_each_end_states_tractions():
     # slipping (above the onset), undamped: the start is remembered over a short transient
     pts = [{"n_modes": 2, "mu_s": 0.45, "mu_k": 0.3, "damping": 0.0, "Omega": 2.5, "f0_rel": 2.0,
             "k_t": kt} for kt in (10.0, 30.0)]
-    nm = Numerics(n_transient=10, n_record=128, n_transient_max=10)
+    nm = Numerics(n_transient=10, n_record=128, n_transient_max=10, n_long_transient=0)
     t = continuation_sweeps(pts, nm, axis="k_t", threads=2)
     m10, m30 = (prepare_point(**p).model for p in pts)
     first = simulate_runs([{"point_id": "a", "params": pts[0]}], nm, 1)[0]
@@ -146,7 +147,7 @@ def test_continue_from_follows_a_state_along_a_path_as_a_line_does():
 
     pts = [{"n_modes": 1, "mu_s": 0.45, "mu_k": 0.3, "damping": 0.0, "Omega": 2.5, "f0_rel": 2.0,
             "k_t": kt} for kt in (10.0, 17.0, 30.0)]
-    nm = Numerics(n_transient=10, n_record=128, n_transient_max=10)
+    nm = Numerics(n_transient=10, n_record=128, n_transient_max=10, n_long_transient=0)
     t = continuation_sweeps(pts, nm, axis="k_t", threads=2)
     up = t[t["branch"] == "up"].sort_values("k")
     first = simulate_runs([{"point_id": "a", "params": pts[0]}], nm, 1)[0]

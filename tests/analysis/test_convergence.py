@@ -61,7 +61,7 @@ def test_each_refinement_changes_its_knob_only():
     _, r = refine("step", POINT, Numerics(method="rk4", steps_per_period=300))
     assert r.steps_per_period == 600
     p, r = refine("windows", POINT, nm)
-    assert p == POINT
+    assert p == POINT and r.n_long_transient == nm.n_long_transient  # long_run refines that
     assert (r.n_transient, r.n_transient_max, r.n_record) == (2 * nm.n_transient, 2 * nm.n_transient_max,
                                                               2 * nm.n_record)
     ly, ly0 = r.lyapunov, nm.lyapunov
@@ -91,9 +91,11 @@ def test_each_refinement_changes_its_knob_only():
     for law in (*REGULARISED_LAWS, "rigid-stick"):  # k_t is no knob of theirs
         with pytest.raises(ValueError, match=f"'k_t'.*law {law}"):
             refine("k_t", POINT | {"law": law}, nm)
-    p, r = refine("long_run", POINT, nm)  # the transient; the start is the map's end state
-    assert p == POINT and r == replace(nm, n_transient=LONG_RUN_PERIODS,
+    # the transient, and no long run of its own (it is one); the start is the map's end state
+    p, r = refine("long_run", POINT, nm)
+    assert p == POINT and r == replace(nm, n_transient=LONG_RUN_PERIODS, n_long_transient=0,
                                        n_transient_max=max(nm.n_transient_max, LONG_RUN_PERIODS))
+    assert nm.n_long_transient > 0 and r.n_long_transient == 0
     p, r = refine("load_up", POINT, nm)  # the controls: the load, not the numerics
     assert p == POINT | {"f0_rel": pytest.approx(0.3 * 1.02)} and r == nm
     p, r = refine("load_down", POINT, nm)

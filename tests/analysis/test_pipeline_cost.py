@@ -16,8 +16,10 @@ from analysis.pipeline.chaos_lifetime import LifetimeSettings
 from analysis.pipeline.config import LyapunovNumerics, Numerics
 from analysis.pipeline.convergence import K_T_STEPS, refine
 from analysis.pipeline.cost import (
+    EXTENDED_SHARE,
     LABEL_SHARE,
     LONG_RUN_SECONDS,
+    LONG_TRANSIENT_SHARE,
     MOVED_SHARE,
     Estimate,
     convergence_cells,
@@ -67,11 +69,30 @@ def test_only_points_without_a_store_record_count_as_new(tmp_path):
 def test_the_estimate_scales_with_simulated_time(tmp_path):
     one = estimate_run(_points([2.0]), Numerics(), tmp_path).cpu_seconds
     assert estimate_run(_points([4.0]), Numerics(), tmp_path).cpu_seconds == pytest.approx(one / 2)
-    # twice the periods of every run: the reference run (its expected continuation and its
-    # continuation check), the Stefanski window and the expected long record
-    longer = Numerics(n_transient=2 * 200, n_record=2 * 256, n_transient_max=2400,
+    # twice the periods of every run: the reference run (its expected continuation, its
+    # continuation check and its expected long run), the Stefanski window and the expected long
+    # record
+    longer = Numerics(n_transient=2 * 200, n_record=2 * 256, n_transient_max=2400, n_long_transient=2 * 4000,
                       lyapunov=LyapunovNumerics(n_periods=50, block_periods=50, burn_in=50))
     assert estimate_run(_points([2.0], longer), longer, tmp_path).cpu_seconds == pytest.approx(2 * one)
+
+
+def test_the_long_run_is_in_the_estimate(tmp_path):
+    """The long run adds its periods to the expected share of the points: the estimate grows
+    linearly with ``n_long_transient``, by ``LONG_TRANSIENT_SHARE`` of a point's cost per period."""
+    pts = _points([2.0, 3.0])
+    cost = {n: estimate_run(pts, replace(Numerics(), n_long_transient=n), tmp_path).cpu_seconds
+            for n in (0, 4000, 8000, 12000)}
+    assert cost[4000] > cost[0] and 0 < cost[8000] - cost[4000] == pytest.approx(cost[12000] - cost[8000])
+    # a point's reference run: the cost of one period from its estimate without a long run (the
+    # fixed transient, the record, the check and the expected continuations)
+    nm = replace(Numerics(), n_long_transient=0)
+    run = nm.n_transient + nm.n_record
+    periods = run * (1.0 + EXTENDED_SHARE) + nm.n_record
+    for p in pts:
+        per_period = point_seconds(p.params, nm, load_cost_model(), ("simulate",)) / periods
+        assert point_seconds(p.params, Numerics(), load_cost_model(), ("simulate",)) == pytest.approx(
+            (periods + LONG_TRANSIENT_SHARE * (4000 + 2 * nm.n_record)) * per_period)
 
 
 def test_the_convergence_runs_are_in_the_estimate(tmp_path):
@@ -84,7 +105,13 @@ def test_the_convergence_runs_are_in_the_estimate(tmp_path):
     mean = base.cpu_seconds / len(pts)
     windows = estimate_run(pts, Numerics(), tmp_path, convergence=[(pts, ["windows"], 2)])
     assert windows.convergence_runs == 2
-    assert windows.cpu_seconds - base.cpu_seconds == pytest.approx(2 * 2 * mean)
+    # every window doubled but the long run, which the row keeps (the long_run row refines it)
+    doubled = [refine("windows", p.params, Numerics()) for p in pts]
+    assert {n.n_long_transient for _, n in doubled} == {Numerics().n_long_transient}
+    per_run = sum(point_seconds(q, n, load_cost_model(), ("simulate", "lyapunov"))
+                  for q, n in doubled) / len(pts)
+    assert windows.cpu_seconds - base.cpu_seconds == pytest.approx(2 * per_run)
+    assert mean < per_run < 2 * mean
     # a tenth of the separation: the map's reference runs are read, the Lyapunov stage runs
     sep = estimate_run(pts, Numerics(), tmp_path, convergence=[(pts, ["separation"], 2)])
     lyap = sum(point_seconds(p.params, Numerics(), load_cost_model(), ("lyapunov",)) for p in pts)

@@ -96,7 +96,9 @@ GOOD = {"n_modes": 1, "Omega": 2.5, "f0_rel": 2.0, "mu_s": 0.45, "mu_k": 0.3, "i
 # the interface dashpot's rate, 2 zeta_t omega_max = 20 omega_max, is far outside RK4's stability
 # interval at the pipeline's step h = 1 / omega_max: this (valid) point diverges with RK4
 UNSTABLE = dict(GOOD, interface_damping=10.0)
+# a short transient and no long run: the stages' bookkeeping, not the points' attractors
 RK4 = {"method": "rk4", "n_transient": 3, "n_record": 128, "n_transient_max": 3, "step_factor": 1.0,
+       "n_long_transient": 0,
        "lyapunov": {"n_periods": 10, "block_periods": 3, "burn_in": 1, "min_blocks": 2, "max_blocks": 3}}
 
 
@@ -137,6 +139,7 @@ def test_the_ladder_setting_reaches_the_stefanski_column_only(tmp_path):
     from beam_copies import CHAOTIC_2MODES as point
 
     base = {"n_transient": 200, "n_record": 256, "n_transient_max": 200, "continuation_check": False,
+            "n_long_transient": 0,  # the record after 200 periods (after 4000 more it is not chaotic)
             "lyapunov": {"n_periods": 20, "block_periods": 5, "burn_in": 1, "min_blocks": 2, "max_blocks": 2,
                          "confirm": "none"}}
     rk4 = base | {"lyapunov": base["lyapunov"] | {"ladder": "rk4"}}
@@ -165,6 +168,7 @@ def test_a_points_lyapunov_record_does_not_depend_on_its_batch(tmp_path):
     from analysis.pipeline.stages import lyapunov_records, lyapunov_runs
 
     base = {"n_transient": 60, "n_record": 128, "n_transient_max": 60, "continuation_check": False,
+            "n_long_transient": 0,
             "lyapunov": {"n_periods": 20, "block_periods": 5, "burn_in": 1, "min_blocks": 2, "max_blocks": 3}}
     pts = _payload([chaotic, chaotic | {"f0_rel": 0.9 * chaotic.get("f0_rel", 2.0)}], base)
     sim = simulate_points(pts, base, str(tmp_path), threads=2).set_index("point_id")
@@ -227,6 +231,7 @@ def test_the_noise_floor_setting_reaches_the_stage(tmp_path):
     from analysis.lyapunov.beam import EXPO_FLOOR_FALLBACK
 
     base = {"n_transient": 60, "n_record": 128, "n_transient_max": 60, "continuation_check": False,
+            "n_long_transient": 0,
             "lyapunov": {"n_periods": 10, "block_periods": 5, "burn_in": 1, "min_blocks": 2, "max_blocks": 2}}
     point = dict(GOOD, f0_rel=2.5, mu_s=0.6)
     rows = {}
@@ -269,7 +274,8 @@ def test_a_slipping_record_below_the_shakedown_limit_is_continued_until_it_stops
         pp = prepare_point(**p)
         return state_params(p, kicked_locked_orbit(pp), pp.model.n)
 
-    nm = Numerics(n_transient=20, n_record=32, n_transient_max=400, continuation_check=False)
+    nm = Numerics(n_transient=20, n_record=32, n_transient_max=400, continuation_check=False,
+                  n_long_transient=0)
     p = kicked(0.9)
     assert locked_ratios(p)[1] < 1.0
     rec = simulate_runs([{"point_id": "a", "params": p}], nm, 1)[0]

@@ -4,6 +4,8 @@ handling of them: a slowly decaying remnant, a converging spiral and a slow drif
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -326,11 +328,134 @@ def test_a_record_kept_after_a_further_transient_is_checked_again(monkeypatch) -
     monkeypatch.setattr(beamsim.simulate, "simulate_batch", counting_batch)
     monkeypatch.setattr(analysis.regimes, "transient_reason", scripted_transient)
     monkeypatch.setattr(analysis.regimes, "continuation_reason", lambda a, b, **kw: None)
-    nm = Numerics(n_transient=3, n_record=5, n_transient_max=100)
+    nm = Numerics(n_transient=3, n_record=5, n_transient_max=100, n_long_transient=0)
     params = {"n_modes": 1, "law": "stick-slip", "mu_s": 0.3, "mu_k": 0.3, "f0_rel": 2.0, "Omega": 1.5}
     out = simulate_runs([{"point_id": "p", "params": params}], nm, 1)[0]
     assert runs == [(3, 1), (0, 1), (3, 1), (0, 1)], runs
     assert out["n_transient_used"] == 2 * 3 + 3 * 5 and out["continuation_reason"] == ""
+    assert not out["long_run"]
+
+
+class _ScriptedRuns:
+    """``simulate_batch`` counting its batches (``runs``: ``(n_transient, points)``) and
+    numbering the records it returns, so that record tests can be scripted per run."""
+
+    def __init__(self, monkeypatch):
+        import beamsim.simulate
+
+        self.runs: list[tuple[int, int]] = []
+        self.record_of: dict[int, int] = {}
+        real = beamsim.simulate.simulate_batch
+
+        def batch(params, n_transient, **kw):
+            out = real(params, n_transient=n_transient, **kw)
+            self.runs.append((n_transient, len(params)))
+            for r in out.results:
+                self.record_of[id(r.poincare_state)] = len(self.runs)
+            return out
+
+        monkeypatch.setattr(beamsim.simulate, "simulate_batch", batch)
+
+    def run_of(self, x) -> int:
+        return self.record_of[id(x)]
+
+
+def test_the_long_run_follows_an_aperiodic_or_unsettled_record_once(monkeypatch) -> None:
+    """simulate_runs' long run (``numerics.n_long_transient``), with the record tests scripted
+    on real one-mode runs.  A record that passed its tests and its check but shows no period is
+    run on once by ``n_long_transient`` periods and a fresh record, which is checked again; the
+    record kept is that one (``long_run``), its transient counts every run; a record that still
+    shows no period after it is not run on again.  A record still a transient at the cap (the
+    map's ``unsettled``) has the long run too, and its fresh record the adaptive transient's
+    budget of a run from rest.  A record with a period has none, nor does one with every
+    element stuck (the linear analysis labels it), nor one below the shakedown limit (the
+    theorem does)."""
+    import analysis.regimes
+    from analysis.pipeline.config import Numerics
+    from analysis.pipeline.stages import simulate_runs
+
+    script = _ScriptedRuns(monkeypatch)
+    transient_runs: set[int] = set()
+    monkeypatch.setattr(analysis.regimes, "transient_reason",
+                        lambda x: "scripted transient" if script.run_of(x) in transient_runs else None)
+    monkeypatch.setattr(analysis.regimes, "continuation_reason", lambda a, b, **kw: None)
+    monkeypatch.setattr(analysis.regimes, "poincare_signature", lambda x: "aperiodic")
+    nm = Numerics(n_transient=3, n_record=128, n_transient_max=100, n_long_transient=40)
+    params = {"n_modes": 1, "law": "stick-slip", "mu_s": 0.45, "mu_k": 0.3, "f0_rel": 2.0, "Omega": 1.5}
+    out = simulate_runs([{"point_id": "p", "params": params}], nm, 1)[0]
+    assert script.runs == [(3, 1), (0, 1), (40, 1), (0, 1)], script.runs
+    assert out["long_run"] and out["n_transient_used"] == 3 + 128 + (128 + 40) + 128
+    # the long run is the continuation of the run without it, to the bit
+    import beamsim.simulate
+    from beamsim.simulate import restart_params
+
+    without = simulate_runs([{"point_id": "p", "params": params}], replace(nm, n_long_transient=0), 1)[0]
+    assert not without["long_run"] and without["n_transient_used"] == 3 + 128
+    kw = dict(n_record=128, method="expo", n_threads=1)
+    start = beamsim.simulate.simulate_batch([params], n_transient=3, **kw).results[0]
+    start = beamsim.simulate.simulate_batch([restart_params(start)], n_transient=0, **kw).results[0]
+    assert np.array_equal(start.final_state, without["final_state"])
+    long = beamsim.simulate.simulate_batch([restart_params(start)], n_transient=40, **kw).results[0]
+    check = beamsim.simulate.simulate_batch([restart_params(long)], n_transient=0, **kw).results[0]
+    assert np.array_equal(check.poincare_state, out["poincare_state"])
+    # unsettled at the cap (every record of the first start a transient): the long run, then
+    # the adaptive transient again within the budget of a run from rest (one more transient)
+    script.runs.clear()
+    transient_runs.update(range(1, 100))
+    capped = replace(nm, n_transient_max=3 + 131)
+    out = simulate_runs([{"point_id": "q", "params": params}], capped, 1)[0]
+    after = [n for n, _ in script.runs]
+    assert after[:2] == [3, 3] and after[2] == 40 and after[3:] == [3], after
+    assert out["long_run"] and out["n_transient_used"] == 3 + 131 + 168 + 131
+    # no long run: a record with a period, every element stuck, below the shakedown limit
+    transient_runs.clear()
+    monkeypatch.setattr(analysis.regimes, "poincare_signature", lambda x: "periodic-3")
+    assert not simulate_runs([{"point_id": "r", "params": params}], nm, 1)[0]["long_run"]
+    # (a record too short for the period test shows no period)
+    assert simulate_runs([{"point_id": "r", "params": params}], replace(nm, n_record=5), 1)[0]["long_run"]
+    monkeypatch.setattr(analysis.regimes, "poincare_signature", lambda x: "aperiodic")
+    stuck = simulate_runs([{"point_id": "s", "params": params | {"f0_rel": 0.2}}], nm, 1)[0]
+    assert stuck["stick_fraction"] == 1.0 and not stuck["long_run"]
+    from kicked_start import kicked_locked_orbit
+
+    from analysis.pipeline.stages import locked_ratios
+    from beamsim.point import prepare_point
+    from beamsim.simulate import state_params
+
+    low = params | {"interface_viscosity": 0.0939}
+    low = low | {"f0_rel": 2.0 * 0.9 / locked_ratios(low)[1]}  # 0.9 of the shakedown limit
+    pp = prepare_point(**low)
+    kicked = state_params(low, kicked_locked_orbit(pp), pp.model.n)  # a start that slips
+    # (a short record, which would have the long run above the limit, still slipping at the cap)
+    short = replace(nm, n_record=5, n_transient_max=11)
+    below = simulate_runs([{"point_id": "b", "params": kicked}], short, 1)[0]
+    assert below["stick_fraction"] < 1.0 and below["shakedown_ratio"] < 1.0 and not below["long_run"]
+
+
+def test_the_long_run_settles_an_unsettled_cell_of_the_default_map() -> None:
+    """A cell of the default map (three modes, Omega 6.58, f0_rel 0.919) that the adaptive
+    transient leaves ``unsettled``: after 2536 periods, continuing by 256 turns period 1 into
+    period 7.  benchmarks/long_runs.py found it period-1 after 4000 periods more; with the
+    shipped long run its record is a settled period-1 record that passes the continuation
+    check."""
+    from analysis.pipeline.config import Numerics
+    from analysis.pipeline.stages import simulate_runs, unsettled_reason
+
+    params = {"alpha1": 0.005, "alpha2": 0.005, "beta": 0.4, "bc": "clamped-free", "n_modes": 3,
+              "k_t": 10.0, "damping": 0.0, "interface_viscosity": 0.0939, "law": "stick-slip",
+              "mu_s": 0.45, "mu_k": 0.3, "p": 1e-4, "f0_rel": 0.919420813593, "Omega": 6.58004611203}
+
+    def run(nm: Numerics) -> dict:
+        return simulate_runs([{"point_id": "p", "params": params}], nm, 1)[0]
+
+    short = run(Numerics(n_long_transient=0))
+    assert not short["long_run"] and "periodic-1 to periodic-7" in unsettled_reason(short)
+    assert Numerics().n_long_transient == 4000
+    long = run(Numerics())
+    x = np.asarray(long["poincare_state"])
+    assert long["long_run"] and unsettled_reason(long) is None and transient_reason(x) is None
+    assert poincare_signature(x) == "periodic-1"
+    assert long["n_transient_used"] == short["n_transient_used"] + 256 + 4000 + 256
 
 
 def test_part_medians_are_those_of_array_split() -> None:

@@ -156,7 +156,8 @@ def test_the_stages_record_the_fallback(tmp_path, scan):
     point's simulate record, whose ``expo`` run met the guard, is the RK4 stage's record, marked;
     the others' are ``expo``'s. With ``lyapunov.method: expo`` the undamped point's free copy
     runs on RK4 (because its reference run did), the damped ones stay on ``expo``."""
-    nm = Numerics(n_transient=30, n_record=128, n_transient_max=30, continuation_check=False)
+    nm = Numerics(n_transient=30, n_record=128, n_transient_max=30, continuation_check=False,
+                  n_long_transient=0)
     guarded = dict(UNDAMPED, f0_rel=next(f for f, z in zip(SCAN, scan[0]) if z > 0))
     pts = [{"point_id": k, "params": v} for k, v in (("u", guarded), ("eq", EQUAL), ("above", ABOVE))]
     sim = simulate_points(pts, nm, str(tmp_path / "a"), threads=2).set_index("point_id")

@@ -50,7 +50,7 @@ def setup_workdir(path: Path, grid: dict = GRID, convergence: dict = SHORT_CONVE
                   multistability: dict = NO_MULTISTABILITY, lifetimes: dict = SHORT_LIFETIMES,
                   **numerics) -> Path:
     """``path`` with ``config.yaml`` (the shipped config, short runs -- a fixed transient, a
-    long Benettin record no longer than the Stefanski window, ``convergence`` for the
+    long Benettin record no longer than the Stefanski window, no long run, ``convergence`` for the
     convergence step, ``multistability`` for the runs from other starts, ``lifetimes`` for the
     lifetime runs --, chunks of two
     points -- the tiny grid in one chunk: every chunk is three jobs, each a Python process
@@ -65,6 +65,8 @@ def setup_workdir(path: Path, grid: dict = GRID, convergence: dict = SHORT_CONVE
     cfg["numerics"].setdefault("n_transient_max", cfg["numerics"]["n_transient"])
     if "n_transient_max" not in numerics:
         cfg["numerics"]["n_transient_max"] = cfg["numerics"]["n_transient"]
+    if "n_long_transient" not in numerics:
+        cfg["numerics"]["n_long_transient"] = 0
     cfg["grid_file"] = str(path / "grid.yaml")
     path.mkdir(parents=True, exist_ok=True)
     (path / "config.yaml").write_text(yaml.safe_dump(cfg))
