@@ -416,6 +416,14 @@ def test_the_long_run_follows_an_aperiodic_or_unsettled_record_once(monkeypatch)
     monkeypatch.setattr(analysis.regimes, "poincare_signature", lambda x: "aperiodic")
     stuck = simulate_runs([{"point_id": "s", "params": params | {"f0_rel": 0.2}}], nm, 1)[0]
     assert stuck["stick_fraction"] == 1.0 and not stuck["long_run"]
+    # a point's records do not depend on its batch: with the stuck point beside it (no long
+    # run), on two threads, the first point's record is the one it has alone, to the bit
+    pair = simulate_runs([{"point_id": "s", "params": params | {"f0_rel": 0.2}},
+                          {"point_id": "p", "params": params}], nm, 2)
+    assert pair[1]["long_run"] and not pair[0]["long_run"]
+    alone = simulate_runs([{"point_id": "p", "params": params}], nm, 1)[0]
+    for key in ("poincare_state", "final_state", "n_transient_used"):
+        assert np.array_equal(pair[1][key], alone[key]), key
     from kicked_start import kicked_locked_orbit
 
     from analysis.pipeline.stages import locked_ratios
