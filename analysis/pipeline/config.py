@@ -151,7 +151,7 @@ class Numerics:
     n_long_transient : the long run (0: none): a record that leaves those tests aperiodic (no
         period in its Poincare samples, :func:`analysis.regimes.poincare_signature`) or unsettled
         (still a transient at the cap, or its last continuation check failed) while its
-        elements slip (not every one stuck) above the shakedown limit is run on once from its
+        elements slip (not every one stuck), not below the shakedown limit, is run on once from its
         end state by ``n_long_transient`` periods and a fresh record of ``n_record``, which
         goes through the adaptive transient (with the budget of a run from rest,
         ``n_transient_max - n_transient`` periods more) and the continuation check again; the

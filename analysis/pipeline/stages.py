@@ -174,10 +174,10 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
     last check passed or none ran): :func:`unsettled_reason` reads it.  A point's continuation
     depends on its own records only (same result in any batch).
 
-    Long run (``nm.n_long_transient`` periods, 0: none): a point not below its shakedown limit that
-    those tests are done with, whose record :func:`long_run_due`, is run on once from its end
-    state by that many periods and a fresh record, tested and checked as above with the budget
-    of a run from rest (``n_transient_max - n_transient`` periods more); ``long_run`` says so.
+    Long run (``nm.n_long_transient`` periods, 0: none): a point not below its shakedown limit
+    that those tests are done with, and whose record :func:`long_run_due` selects, is run on
+    once from its end state by that many periods and a fresh record, tested and checked as above
+    with the budget of a run from rest (``n_transient_max - n_transient`` more); ``long_run``.
 
     Zeno fallback: a point whose ``expo`` runs met ``expo``'s Zeno guard (a stick/slip switch
     cascade cut short and the state put on the step end: a jump in time,
