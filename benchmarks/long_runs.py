@@ -21,7 +21,8 @@ own, since a dense history sets the integrator's steps) and whether the creep ha
 labels held.
 
 Cells: every cell of the ``--all`` labels (default chaotic, quasi-periodic, unsettled), and
-``--sample`` cells (seed 0) of every other label.
+``--sample`` cells (seed 0) of every other label; or, with ``--min-period m``, every periodic cell
+of period ``m`` or more (no other cell).
 
     .venv/bin/python benchmarks/long_runs.py --run <a finished run's working directory>
     .venv/bin/python benchmarks/long_runs.py --run ... --periods 4000 --sample 10
@@ -109,6 +110,8 @@ def main() -> None:
     ap.add_argument("--periods", type=int, default=8000, help=f"long run, >= {2 * BLOCK}")
     ap.add_argument("--all", nargs="+", default=["chaotic", "quasi-periodic", "unsettled"])
     ap.add_argument("--sample", type=int, default=20, help="cells of every other label")
+    ap.add_argument("--min-period", type=int, default=0,
+                    help="instead of --all and --sample: every periodic cell of period >= this")
     ap.add_argument("--threads", type=int, default=2)
     a = ap.parse_args()
     if a.periods < 2 * BLOCK:
@@ -116,7 +119,8 @@ def main() -> None:
     run = Path(a.run)
     numerics = as_numerics(yaml.safe_load((run / "config" / "config.yaml").read_text())["numerics"])
     table = pd.read_parquet(run / "results" / "regimes" / f"{a.grid}.parquet")
-    cells = select(table, a.all, a.sample)
+    cells = (table[(table["label"] == "periodic") & (table["period"] >= a.min_period)] if a.min_period
+             else select(table, a.all, a.sample))
     store = PointStore(run / "results" / "store", "simulate")
     t0 = time.perf_counter()
     runs = long_runs(cells, store, numerics, a.periods, a.threads)
