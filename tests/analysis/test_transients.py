@@ -300,42 +300,6 @@ def test_the_continuation_check_finds_a_slow_remnant_of_the_beam() -> None:
     assert checked["n_transient_used"] == 200 + 2 * 256 and checked["continuation_reason"] == ""
 
 
-def test_a_record_kept_after_a_further_transient_is_checked_again(monkeypatch) -> None:
-    """simulate_runs' bookkeeping, with the record tests scripted on real (short, one-mode)
-    runs: the first record passes its own tests and goes to the continuation check; the check's
-    record is still a transient, so a further adaptive transient and record follow; that new
-    record must be checked again before the point is done (run order: transient + record, check,
-    transient + record, check), and the transient used counts every run."""
-    import analysis.regimes
-    import beamsim.simulate
-    from analysis.pipeline.config import Numerics
-    from analysis.pipeline.stages import simulate_runs
-
-    runs: list[tuple[int, int]] = []  # (n_transient, number of points) of each batch
-    record_of: dict[int, int] = {}  # id of a record's Poincare array -> its run number
-    real_batch = beamsim.simulate.simulate_batch
-
-    def counting_batch(params, n_transient, **kw):
-        out = real_batch(params, n_transient=n_transient, **kw)
-        runs.append((n_transient, len(params)))
-        for r in out.results:
-            record_of[id(r.poincare_state)] = len(runs)
-        return out
-
-    def scripted_transient(x):  # the first check's record (run 2) is still a transient
-        return "scripted transient" if record_of[id(x)] == 2 else None
-
-    monkeypatch.setattr(beamsim.simulate, "simulate_batch", counting_batch)
-    monkeypatch.setattr(analysis.regimes, "transient_reason", scripted_transient)
-    monkeypatch.setattr(analysis.regimes, "continuation_reason", lambda a, b, **kw: None)
-    nm = Numerics(n_transient=3, n_record=5, n_transient_max=100, n_long_transient=0)
-    params = {"n_modes": 1, "law": "stick-slip", "mu_s": 0.3, "mu_k": 0.3, "f0_rel": 2.0, "Omega": 1.5}
-    out = simulate_runs([{"point_id": "p", "params": params}], nm, 1)[0]
-    assert runs == [(3, 1), (0, 1), (3, 1), (0, 1)], runs
-    assert out["n_transient_used"] == 2 * 3 + 3 * 5 and out["continuation_reason"] == ""
-    assert not out["long_run"]
-
-
 class _ScriptedRuns:
     """``simulate_batch`` counting its batches (``runs``: ``(n_transient, points)``) and
     numbering the records it returns, so that record tests can be scripted per run."""
@@ -358,6 +322,31 @@ class _ScriptedRuns:
 
     def run_of(self, x) -> int:
         return self.record_of[id(x)]
+
+
+def test_a_record_kept_after_a_further_transient_is_checked_again(monkeypatch) -> None:
+    """simulate_runs' bookkeeping, with the record tests scripted on real (short, one-mode)
+    runs: the first record passes its own tests and goes to the continuation check; the check's
+    record is still a transient, so a further adaptive transient and record follow; that new
+    record must be checked again before the point is done (run order: transient + record, check,
+    transient + record, check), and the transient used counts every run."""
+    import analysis.regimes
+    from analysis.pipeline.config import Numerics
+    from analysis.pipeline.stages import simulate_runs
+
+    script = _ScriptedRuns(monkeypatch)
+
+    def scripted_transient(x):  # the first check's record (run 2) is still a transient
+        return "scripted transient" if script.run_of(x) == 2 else None
+
+    monkeypatch.setattr(analysis.regimes, "transient_reason", scripted_transient)
+    monkeypatch.setattr(analysis.regimes, "continuation_reason", lambda a, b, **kw: None)
+    nm = Numerics(n_transient=3, n_record=5, n_transient_max=100, n_long_transient=0)
+    params = {"n_modes": 1, "law": "stick-slip", "mu_s": 0.3, "mu_k": 0.3, "f0_rel": 2.0, "Omega": 1.5}
+    out = simulate_runs([{"point_id": "p", "params": params}], nm, 1)[0]
+    assert script.runs == [(3, 1), (0, 1), (3, 1), (0, 1)], script.runs
+    assert out["n_transient_used"] == 2 * 3 + 3 * 5 and out["continuation_reason"] == ""
+    assert not out["long_run"]
 
 
 def test_the_long_run_follows_an_aperiodic_or_unsettled_record_once(monkeypatch) -> None:
