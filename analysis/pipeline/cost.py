@@ -84,9 +84,9 @@ LONG_RECORD_REACH = {"obrien-fleming": 0.61, "pocock": 0.61, "none": 0.33}
 #: expected share of points the adaptive transient continues (default grid: 0.29)
 EXTENDED_SHARE = 0.3
 #: expected share of points that have the long run, weighted by their cost per period (results
-#: version 28's znver3 default map: 108 of 400 cells had it, 0.27, slipping records dearer per
-#: period than the map's mean; the 627 s of simulate job time it added are 0.3 of the map's
-#: nominal cost per period times n_long_transient + 2 n_record per point)
+#: version 28's znver3 default map: 108 of 400 cells had it, 0.27, slipping records 1.2 times
+#: dearer per period than the map's mean; with 0.3 the run's estimate is 28 min against 33:53
+#: measured, with 0.2 it was 24 min: docs/reliability.md)
 LONG_TRANSIENT_SHARE = 0.3
 #: expected share of a cell's extra starts that reach an attractor of their own (each then
 #: needs a Lyapunov run; default grid: 100 of 192, docs/pipeline.md)
