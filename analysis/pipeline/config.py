@@ -152,13 +152,11 @@ class Numerics:
         period in its Poincare samples, :func:`analysis.regimes.poincare_signature`) or unsettled
         (still a transient at the cap, or its last continuation check failed) while its
         elements slip (not every one stuck), not below the shakedown limit, is run on once from its
-        end state by up to ``n_long_transient`` periods (rounded up to whole records), in
-        records of ``n_record``, stopping at the first record that shows a settled period
-        (:func:`analysis.pipeline.stages.long_run_ends`); its last record goes through the
-        adaptive transient (with the budget of a run from rest, ``n_transient_max -
-        n_transient`` periods more) and the continuation check again, and is kept (the slip
-        locked into the stuck elements creeps for thousands of periods: docs/pipeline.md,
-        "Long runs from the map's end states").
+        end state by ``n_long_transient`` periods and a fresh record of ``n_record``, which
+        goes through the adaptive transient (with the budget of a run from rest,
+        ``n_transient_max - n_transient`` periods more) and the continuation check again; the
+        later record is kept (the slip locked into the stuck elements creeps for thousands of
+        periods: docs/pipeline.md, "Long runs from the map's end states").
     chunk_size : grid points per job (not part of a point's id).
     """
 

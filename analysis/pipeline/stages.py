@@ -158,9 +158,10 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
 
     Shakedown: a record that slips (``stick_fraction`` below 1) at a point below its shakedown
     limit (:func:`locked_ratios`: every motion there slips a finite total distance) is a
-    transient too, continued in the same way; the record carries ``shakedown_ratio``.  Where
-    the runs are not motions of the model (:class:`ShakedownWatch`) the record is not continued
-    and carries the reason (``shakedown_trouble``: :func:`unsettled_reason`'s ``unsettled``).
+    transient too, continued in the same way; the record carries the point's
+    ``shakedown_ratio``.  Where the runs are not motions of the model (:class:`ShakedownWatch`)
+    the record is not continued and carries the reason (``shakedown_trouble``: ``unsettled``,
+    :func:`unsettled_reason`, instead of labelled by the theorem).
 
     Continuation check (``nm.continuation_check``): a record that passes those tests and starts
     within ``n_transient_max`` periods is continued by ``n_record`` periods (no transient); the
@@ -175,15 +176,17 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
 
     Long run (``nm.n_long_transient`` periods, 0: none): a point not below its shakedown limit
     that those tests are done with, and whose record :func:`long_run_due` selects, is run on
-    once from its end state, in records of ``n_record`` periods, until one ends it
-    (:func:`long_run_ends`) or ``n_long_transient`` periods are run (:func:`long_run_records`);
-    its last record is tested and checked as above with the budget of a run from rest
-    (``n_transient_max - n_transient`` more); ``long_run``.
+    once from its end state by that many periods and a fresh record, tested and checked as above
+    with the budget of a run from rest (``n_transient_max - n_transient`` more); ``long_run``.
 
-    Zeno fallback (:func:`_zeno_fallback`): a point whose ``expo`` runs met ``expo``'s Zeno
-    guard (``SimResult.n_zeno``) is run again, all of it, on RK4; ``method`` :data:`ZENO_FALLBACK`.
-    ``pattern_store``: ``expo``'s stick-pattern decompositions (:class:`beamsim.pattern_store.
-    PatternStore`; default: one for this call, shared by its runs), a cost, not a result."""
+    Zeno fallback: a point whose ``expo`` runs met ``expo``'s Zeno guard (a stick/slip switch
+    cascade cut short and the state put on the step end: a jump in time,
+    ``SimResult.n_zeno``) is run again, all of it, on RK4 (``step_factor``); its ``method``
+    is then :data:`ZENO_FALLBACK`.
+
+    ``pattern_store``: ``expo``'s stick-pattern decompositions
+    (:class:`beamsim.pattern_store.PatternStore`; default: one for this call, shared by its
+    runs), a cost, not a result."""
     from analysis.regimes import transient_reason
     from beamsim.pattern_store import PatternStore
     from beamsim.simulate import restart_params, simulate_batch
@@ -203,27 +206,25 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
     why_continued = [""] * len(points)
     done = [False] * len(points)  # next_run said None: the point's record is final
     cap = [nm.n_transient_max] * len(points)  # moved on by the long run
-    long_run, long_left = [False] * len(points), [0] * len(points)  # its records still to go
+    long_run = [False] * len(points)
 
     def next_run(i: int) -> str | None:
         """``"transient"``, ``"check"``, ``"long"`` or ``None`` (the point is done)."""
         r = results[i]
         x = r.poincare_state
-        if r.diverged or not np.all(np.isfinite(x)) or watch.trouble[i]:
+        if r.diverged or not np.all(np.isfinite(x)):
             return None
-        if long_left[i]:
-            return "long"
+        if watch.trouble[i]:
+            return None
         slipping_below = r.stick_fraction < 1.0 and kinetic[i] < 1.0
         transient = slipping_below or transient_reason(x) is not None
         if transient and used[i] + nm.n_record + nm.n_transient <= cap[i]:
             return "transient"
         if not transient and not checked[i] and used[i] <= cap[i]:
             return "check"
-        if (long_run[i] or nm.n_long_transient == 0 or slipping_below
-                or not long_run_due(r, points[i]["params"], transient, checked[i])):
+        if long_run[i] or nm.n_long_transient == 0 or slipping_below:
             return None
-        long_run[i], long_left[i] = True, long_run_records(nm)
-        return "long"
+        return "long" if long_run_due(r, points[i]["params"], transient, checked[i]) else None
 
     def pending() -> list[tuple[int, str]]:
         """The points that run again and how; a point found done stays done (its record is
@@ -237,7 +238,7 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
         return out
 
     while todo := pending():
-        for kind, n_tr in (("transient", nm.n_transient), ("check", 0), ("long", 0)):
+        for kind, n_tr in (("transient", nm.n_transient), ("check", 0), ("long", nm.n_long_transient)):
             idx = [i for i, k in todo if k == kind]
             if not idx:
                 continue
@@ -251,10 +252,9 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
                     why_continued[i], checked[i] = why or "", why is None
                 else:  # a new record after a transient: not checked yet
                     why_continued[i], checked[i] = "", not nm.continuation_check
-                if kind == "long":  # at its end, the budget of a run from rest's adaptive transient
-                    ends = long_left[i] == 1 or long_run_ends(r, points[i]["params"])
-                    long_left[i] = 0 if ends else long_left[i] - 1
-                    cap[i] = used[i] + nm.n_record + nm.n_transient_max - nm.n_transient
+                if kind == "long":  # then the budget of a run from rest's adaptive transient
+                    long_run[i] = True
+                    cap[i] = used[i] + nm.n_record + n_tr + nm.n_transient_max - nm.n_transient
                 used[i] += nm.n_record + n_tr
                 t_start[i] = t0
                 results[i] = r
@@ -277,26 +277,6 @@ def _zeno_fallback(points: list[dict], zeno: Sequence[int], nm: Numerics, thread
              [zeno[i] for i in redo])
     rk4 = replace(nm, method="rk4", steps_per_period=None)
     return dict(zip(redo, simulate_runs([points[i] for i in redo], rk4, threads)))
-
-
-def long_run_records(nm: Numerics) -> int:
-    """Records of ``nm.n_record`` periods that make up a whole long run: enough for
-    ``nm.n_long_transient`` periods (the last of them the record the run keeps)."""
-    return -(-nm.n_long_transient // nm.n_record)
-
-
-def long_run_ends(r, params: dict) -> bool:
-    """Whether a long run under way (:func:`simulate_runs`) ends with the record of run ``r``
-    (a ``SimResult`` at ``params``) before its whole length: the record would not have started
-    one (:func:`long_run_due` of a checked record: a period in its Poincare samples that the
-    transient tests pass, or every element of a sticking law stuck).  The record then goes on to
-    the transient tests and the continuation check like any other."""
-    from analysis.regimes import transient_reason
-
-    x = r.poincare_state
-    if r.diverged or not np.all(np.isfinite(x)):
-        return True
-    return not long_run_due(r, params, transient_reason(x) is not None, True)
 
 
 def long_run_due(r, params: dict, transient: bool, checked: bool) -> bool:
