@@ -48,11 +48,11 @@ def test_expo_and_rk4_reference_runs_give_the_same_labels(tmp_path):
     docs/model.md).  Both are far inside the classifier's period tolerance (2 % of a component's
     scale, at least 0.2 % of the largest).  On the quasi-periodic ones the records drift along
     the torus, so the sets are compared: quantiles within that period tolerance, 2e-2 of the
-    largest (measured at most 5.6e-3 in results version 28).  These are the records of the first
-    start (60 + 128 periods), without the long run (``n_long_transient``): after it (4000
-    periods more) the labels still agree, but one torus's velocity quantiles differ by 1.98e-2
-    (results version 28), the integrators' difference carried along the tori's neutral
-    directions for 30 times as long."""
+    largest (measured at most 5.6e-3 in results version 28).  These are the records of the runs
+    from rest without the long run (``n_long_transient``): after it (4000 periods more) the
+    labels still agree, but one torus's velocity quantiles differ by 1.98e-2 (results version
+    28), the integrators' difference carried along the tori's neutral directions 4000 periods
+    longer."""
     model = {"n_modes": 1, "mu_s": 0.45, "mu_k": 0.3, "interface_damping": 0.5, "Omega": 1.0,
              "f0_rel": 1.0}
     grid = {"axes": {"Omega": sorted({p["Omega"] for p in POINTS}),
