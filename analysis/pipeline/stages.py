@@ -252,10 +252,10 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
                     why_continued[i], checked[i] = why or "", why is None
                 else:  # a new record after a transient: not checked yet
                     why_continued[i], checked[i] = "", not nm.continuation_check
+                used[i] += nm.n_record + n_tr
                 if kind == "long":  # then the budget of a run from rest's adaptive transient
                     long_run[i] = True
-                    cap[i] = used[i] + nm.n_record + n_tr + nm.n_transient_max - nm.n_transient
-                used[i] += nm.n_record + n_tr
+                    cap[i] = used[i] + nm.n_transient_max - nm.n_transient
                 t_start[i] = t0
                 results[i] = r
                 zeno[i] += r.n_zeno

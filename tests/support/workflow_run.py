@@ -61,12 +61,10 @@ def setup_workdir(path: Path, grid: dict = GRID, convergence: dict = SHORT_CONVE
     cfg["convergence"] = dict(convergence)
     cfg["multistability"] = dict(multistability)
     cfg["lifetimes"] = dict(lifetimes)
-    cfg["numerics"].update({"n_transient": 4, "n_record": 128, "chunk_size": 2} | numerics)
-    cfg["numerics"].setdefault("n_transient_max", cfg["numerics"]["n_transient"])
+    cfg["numerics"].update({"n_transient": 4, "n_record": 128, "chunk_size": 2, "n_long_transient": 0}
+                           | numerics)
     if "n_transient_max" not in numerics:
         cfg["numerics"]["n_transient_max"] = cfg["numerics"]["n_transient"]
-    if "n_long_transient" not in numerics:
-        cfg["numerics"]["n_long_transient"] = 0
     cfg["grid_file"] = str(path / "grid.yaml")
     path.mkdir(parents=True, exist_ok=True)
     (path / "config.yaml").write_text(yaml.safe_dump(cfg))
