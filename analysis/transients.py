@@ -24,13 +24,22 @@ change over the record exceeds ``min_drift S_j``.  A torus whose slowest rotatio
 than the record looks like that too;
 such a record does not show what the attractor is either, so calling it unsettled (and running
 longer) is the honest answer.
+
+**Near a shorter period** (:func:`near_shorter_period`).  A remnant that decays too slowly
+for either test, around an orbit of period ``d``, can carry a pattern of period ``m`` (a
+multiple of ``d``) that the period test resolves while the remnant keeps ``x`` just outside
+its tolerance of period ``d``: the record reads period ``m``, but within a small multiple
+of the tolerance it is period ``d`` already.  A genuine period-``m`` orbit near a
+period-``d`` one (just past a period-multiplying bifurcation) looks the same on one record,
+so this is not a transient verdict: the pipeline runs such a record on
+(:func:`analysis.pipeline.stages.long_run_due`) and lets the longer run tell them apart.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["converging_period", "drifting_component"]
+__all__ = ["converging_period", "drifting_component", "near_shorter_period"]
 
 #: a scaled lag distance below this is round-off (the lag is a period already)
 ROUNDOFF_DISTANCE = 1e-9
@@ -109,3 +118,24 @@ def drifting_component(x: np.ndarray, scales: np.ndarray, *, n_blocks: int = 16,
         if abs(drift[j]) > min_drift and abs(slope[j]) > crit * se[j]:
             return j, float(drift[j])
     return None
+
+
+def near_shorter_period(x: np.ndarray, period: int, *, factor: float = 2.0, rtol: float = 0.02,
+                        scale_floor_rtol: float = 0.1) -> int | None:
+    """The shortest divisor ``d < period`` of a period-``period`` reading whose period-test
+    residual (:func:`analysis.poincare.detect_period`, scales of
+    :func:`analysis.poincare.component_scales` with ``scale_floor_rtol``) is within
+    ``factor * rtol``, or ``None`` (also for ``period <= 1``).  ``rtol`` is the period test's
+    tolerance (the classifier's ``period_rtol``): the record is then at most ``factor`` times
+    the tolerance away from period ``d`` (module docstring, "Near a shorter period")."""
+    from analysis.poincare import component_scales, detect_period
+
+    m = int(period)
+    if m <= 1:
+        return None
+    x = np.asarray(x, dtype=float)
+    scales = component_scales(x, floor_rtol=scale_floor_rtol)
+    # every residual below m (a negative tolerance stops at none; min_repeats the classifier's)
+    residuals = detect_period(x, m_max=m - 1, rtol=-1.0, scales=scales, min_repeats=3).residuals
+    near = [d for d in range(1, m) if m % d == 0 and residuals[d - 1] <= factor * rtol]
+    return near[0] if near else None

@@ -25,7 +25,7 @@ import numpy as np
 from analysis.pipeline.config import Numerics, as_numerics
 
 #: bump when a code change alters results for unchanged parameters (invalidates all ids)
-RESULTS_VERSION = "28"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
+RESULTS_VERSION = "30"  # 6: adaptive transients, block statistics of lambda_1; 7: expo's
 #                        conjugate pairs with damping, kernels with reassociated sums; 8: the
 #                        continuation check (the record kept is the continued one); 9: the
 #                        Lyapunov stage's free copy on expo (numerics.lyapunov.method: auto);
@@ -75,7 +75,9 @@ RESULTS_VERSION = "28"  # 6: adaptive transients, block statistics of lambda_1; 
 #                        which scaled the tractions by the ratio of the stiffnesses): only
 #                        grids with k_t as an axis or line change; 28: the long run
 #                        (numerics.n_long_transient) of aperiodic and unsettled records
-#                        (simulate record's long_run)
+#                        (simulate record's long_run); 29: taken by a reverted commit
+#                        (7b120db); 30: the long run also after a period-m record (m > 1)
+#                        near a shorter period (analysis.transients.near_shorter_period)
 
 
 def _canonical(value):

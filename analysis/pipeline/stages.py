@@ -283,18 +283,26 @@ def long_run_due(r, params: dict, transient: bool, checked: bool) -> bool:
     """Whether the record of run ``r`` (a ``SimResult`` at ``params``), which the adaptive
     transient and the continuation check of :func:`simulate_runs` are done with, is one the
     long run follows: a record still a transient (``transient``: at the cap) or whose last check
-    failed (not ``checked``), the map's ``unsettled``, or one without a period in its Poincare
+    failed (not ``checked``), the map's ``unsettled``, one without a period in its Poincare
     samples (:func:`analysis.regimes.poincare_signature`; a record too short for the period
-    test, fewer than :data:`analysis.regimes.MIN_SAMPLES` samples, shows none); not a record
-    in which every element of a sticking law stays stuck, which the linear analysis labels
-    (:func:`classify_points`)."""
-    from analysis.regimes import MIN_SAMPLES, poincare_signature
+    test, fewer than :data:`analysis.regimes.MIN_SAMPLES` samples, shows none), or one of a
+    period ``m > 1`` within twice the period test's tolerance of a shorter period
+    (:func:`analysis.transients.near_shorter_period`: what a slowly decaying remnant around
+    that shorter period's orbit looks like); not a record in which every element of a sticking
+    law stays stuck, which the linear analysis labels (:func:`classify_points`)."""
+    from analysis.regimes import MIN_SAMPLES, PERIODIC, poincare_signature
+    from analysis.transients import near_shorter_period
     from beamsim.friction import STICKING_LAWS
 
     if params.get("law", "stick-slip") in STICKING_LAWS and r.stick_fraction >= 1.0:
         return False
     x = r.poincare_state
-    return transient or not checked or len(x) < MIN_SAMPLES or poincare_signature(x) == "aperiodic"
+    if transient or not checked or len(x) < MIN_SAMPLES:
+        return True
+    signature = poincare_signature(x)
+    if not signature.startswith(PERIODIC):
+        return True
+    return near_shorter_period(x, int(signature.rsplit("-", 1)[1])) is not None
 
 
 #: the relative growth of ``W`` (:func:`beamsim.shakedown.difference_energy`) over one run that

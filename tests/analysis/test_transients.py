@@ -455,6 +455,72 @@ def test_the_long_run_settles_an_unsettled_cell_of_the_default_map() -> None:
     assert long["n_transient_used"] == short["n_transient_used"] + 256 + 4000 + 256
 
 
+def _period_pattern(m: int, n: int = N, seed: int = 0) -> np.ndarray:
+    """A period-``m`` pattern of unit spread in 3 components (samples ``n``)."""
+    pat = np.random.default_rng(seed).uniform(-0.5, 0.5, size=(m, 3))
+    return pat[np.arange(n) % m] / np.ptp(pat, axis=0)
+
+
+@pytest.mark.parametrize("amp, near", [(0.03, 1), (0.035, 1), (0.05, None), (0.2, None)])
+def test_a_period_m_reading_near_period_1_is_found(amp: float, near: int | None) -> None:
+    """A fixed point with a period-16 wobble of ``amp`` of its component scale (the floor,
+    a tenth of the largest magnitude, as at the beam's remnant): period 16 to the classifier,
+    and within twice the period test's tolerance of period 1 when the wobble's spread is."""
+    from analysis.transients import near_shorter_period
+
+    x = np.array([1.0, -0.5, 0.8]) + 0.1 * amp * _period_pattern(16)
+    assert poincare_signature(x) == "periodic-16"
+    assert near_shorter_period(x, 16) == near
+    # period 1's residual is the wobble's spread over the scale (a tenth of max |x|: about amp)
+    from analysis.poincare import component_scales
+
+    r1 = float(np.max(np.ptp(x, axis=0) / component_scales(x)))
+    assert abs(r1 - amp) < 0.01 * amp
+    assert near_shorter_period(x, 16, factor=r1 / 0.02 * 1.001) == 1
+    assert near_shorter_period(x, 16, factor=r1 / 0.02 * 0.999) is None
+
+
+def test_a_period_m_reading_near_a_divisor_is_found_and_not_near_another_period() -> None:
+    """A period-11 orbit with a period-22 wobble of 3 % of the spread is near period 11 (its
+    divisor), not near period 2; a clean period-22 orbit and a period-2 orbit are near none;
+    a period-1 reading has no shorter period."""
+    from analysis.transients import near_shorter_period
+
+    base = _period_pattern(11)
+    x = base + 0.03 * _period_pattern(22, seed=1)
+    assert poincare_signature(x) == "periodic-22" and near_shorter_period(x, 22) == 11
+    assert near_shorter_period(_period_pattern(22, seed=1), 22) is None
+    assert near_shorter_period(_period_pattern(2), 2) is None
+    assert near_shorter_period(np.ones((N, 3)), 1) is None
+
+
+def test_the_long_run_follows_a_period_16_remnant_of_the_default_map() -> None:
+    """A cell of the default map (three modes, Omega 5.97, f0_rel 0.858) that results version
+    28 labelled periodic-16: a period-1 orbit with a slowly decaying wobble that keeps it 1.3
+    times the period tolerance from period 1.  4000 periods more (the long run, since results
+    version 30 also after such a record) leave a settled period-1 record."""
+    from analysis.pipeline.config import Numerics
+    from analysis.pipeline.stages import simulate_runs
+    from analysis.transients import near_shorter_period
+
+    params = {"alpha1": 0.005, "alpha2": 0.005, "beta": 0.4, "bc": "clamped-free", "n_modes": 3,
+              "k_t": 10.0, "damping": 0.0, "interface_viscosity": 0.0939, "law": "stick-slip",
+              "mu_s": 0.45, "mu_k": 0.3, "p": 1e-4, "f0_rel": 0.857634334011, "Omega": 5.96758223128}
+
+    def run(nm: Numerics) -> dict:
+        return simulate_runs([{"point_id": "p", "params": params}], nm, 1)[0]
+
+    short = run(Numerics(n_long_transient=0))
+    x = np.asarray(short["poincare_state"])
+    assert not short["long_run"] and transient_reason(x) is None and short["continuation_reason"] == ""
+    assert poincare_signature(x) == "periodic-16" and near_shorter_period(x, 16) == 1
+    long = run(Numerics())
+    x = np.asarray(long["poincare_state"])
+    assert long["long_run"] and transient_reason(x) is None and long["continuation_reason"] == ""
+    assert poincare_signature(x) == "periodic-1"
+    assert long["n_transient_used"] == short["n_transient_used"] + 256 + 4000 + 256
+
+
 def test_part_medians_are_those_of_array_split() -> None:
     """``converging_period``'s part medians (equal-length parts in one call) are ``np.median``
     of each part ``np.array_split`` makes, to the bit, whatever the remainder."""
