@@ -149,8 +149,9 @@ class Numerics:
         a point whose last check failed is ``unsettled``; a check run that diverges makes the
         point ``diverged``.
     n_long_transient : the long run (0: none): a record that leaves those tests aperiodic (no
-        period in its Poincare samples, :func:`analysis.regimes.poincare_signature`) or unsettled
-        (still a transient at the cap, or its last continuation check failed) while its
+        period in its Poincare samples, :func:`analysis.regimes.poincare_signature`), unsettled
+        (still a transient at the cap, or its last continuation check failed) or of a period
+        ``m > 1`` near a shorter one (:func:`analysis.transients.near_shorter_period`) while its
         elements slip (not every one stuck), not below the shakedown limit, is run on once from its
         end state by ``n_long_transient`` periods and a fresh record of ``n_record``, which
         goes through the adaptive transient (with the budget of a run from rest,
