@@ -290,7 +290,7 @@ def long_run_due(r, params: dict, transient: bool, checked: bool) -> bool:
     (:func:`analysis.transients.near_shorter_period`: what a slowly decaying remnant around
     that shorter period's orbit looks like); not a record in which every element of a sticking
     law stays stuck, which the linear analysis labels (:func:`classify_points`)."""
-    from analysis.regimes import MIN_SAMPLES, PERIODIC, poincare_signature
+    from analysis.regimes import MIN_SAMPLES, PERIODIC, Thresholds, poincare_signature
     from analysis.transients import near_shorter_period
     from beamsim.friction import STICKING_LAWS
 
@@ -302,7 +302,9 @@ def long_run_due(r, params: dict, transient: bool, checked: bool) -> bool:
     signature = poincare_signature(x)
     if not signature.startswith(PERIODIC):
         return True
-    return near_shorter_period(x, int(signature.rsplit("-", 1)[1])) is not None
+    th = Thresholds()  # the classifier's period test, whose reading this is
+    return near_shorter_period(x, int(signature.rsplit("-", 1)[1]), rtol=th.period_rtol,
+                               scale_floor_rtol=th.scale_floor_rtol) is not None
 
 
 #: the relative growth of ``W`` (:func:`beamsim.shakedown.difference_energy`) over one run that
