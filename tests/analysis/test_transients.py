@@ -434,6 +434,17 @@ def test_the_long_run_follows_an_aperiodic_or_unsettled_record_once(monkeypatch)
     assert below["stick_fraction"] < 1.0 and below["shakedown_ratio"] < 1.0 and not below["long_run"]
 
 
+def _run_default_cell(Omega: float, f0_rel: float, nm) -> dict:
+    """``simulate_runs``' record of one cell of the default map (three modes, its friction and
+    interface) under numerics ``nm``."""
+    from analysis.pipeline.stages import simulate_runs
+
+    params = {"alpha1": 0.005, "alpha2": 0.005, "beta": 0.4, "bc": "clamped-free", "n_modes": 3,
+              "k_t": 10.0, "damping": 0.0, "interface_viscosity": 0.0939, "law": "stick-slip",
+              "mu_s": 0.45, "mu_k": 0.3, "p": 1e-4, "f0_rel": f0_rel, "Omega": Omega}
+    return simulate_runs([{"point_id": "p", "params": params}], nm, 1)[0]
+
+
 def test_the_long_run_settles_an_unsettled_cell_of_the_default_map() -> None:
     """A cell of the default map (three modes, Omega 6.58, f0_rel 0.919) that the adaptive
     transient leaves ``unsettled``: after 2536 periods, continuing by 256 turns period 1 into
@@ -441,14 +452,10 @@ def test_the_long_run_settles_an_unsettled_cell_of_the_default_map() -> None:
     shipped long run its record is a settled period-1 record that passes the continuation
     check."""
     from analysis.pipeline.config import Numerics
-    from analysis.pipeline.stages import simulate_runs, unsettled_reason
-
-    params = {"alpha1": 0.005, "alpha2": 0.005, "beta": 0.4, "bc": "clamped-free", "n_modes": 3,
-              "k_t": 10.0, "damping": 0.0, "interface_viscosity": 0.0939, "law": "stick-slip",
-              "mu_s": 0.45, "mu_k": 0.3, "p": 1e-4, "f0_rel": 0.919420813593, "Omega": 6.58004611203}
+    from analysis.pipeline.stages import unsettled_reason
 
     def run(nm: Numerics) -> dict:
-        return simulate_runs([{"point_id": "p", "params": params}], nm, 1)[0]
+        return _run_default_cell(6.58004611203, 0.919420813593, nm)
 
     short = run(Numerics(n_long_transient=0))
     assert not short["long_run"] and "periodic-1 to periodic-7" in unsettled_reason(short)
@@ -505,15 +512,10 @@ def test_the_long_run_follows_a_period_16_remnant_of_the_default_map() -> None:
     times the period tolerance from period 1.  4000 periods more (the long run, since results
     version 30 also after such a record) leave a settled period-1 record."""
     from analysis.pipeline.config import Numerics
-    from analysis.pipeline.stages import simulate_runs
     from analysis.transients import near_shorter_period
 
-    params = {"alpha1": 0.005, "alpha2": 0.005, "beta": 0.4, "bc": "clamped-free", "n_modes": 3,
-              "k_t": 10.0, "damping": 0.0, "interface_viscosity": 0.0939, "law": "stick-slip",
-              "mu_s": 0.45, "mu_k": 0.3, "p": 1e-4, "f0_rel": 0.857634334011, "Omega": 5.96758223128}
-
     def run(nm: Numerics) -> dict:
-        return simulate_runs([{"point_id": "p", "params": params}], nm, 1)[0]
+        return _run_default_cell(5.96758223128, 0.857634334011, nm)
 
     short = run(Numerics(n_long_transient=0))
     x = np.asarray(short["poincare_state"])
