@@ -283,6 +283,7 @@ def test_the_continuation_check_finds_a_slow_remnant_of_the_beam() -> None:
     follows such a record: its period 5 lies within twice the period tolerance of period 1.)"""
     from analysis.pipeline.config import Numerics
     from analysis.pipeline.stages import simulate_runs
+    from analysis.transients import near_shorter_period
 
     params = {"alpha1": 0.005, "alpha2": 0.005, "beta": 0.4, "bc": "clamped-free", "n_modes": 2,
               "k_t": 10.0, "damping": 0.0, "interface_viscosity": 0.0939, "law": "stick-slip",
@@ -290,8 +291,6 @@ def test_the_continuation_check_finds_a_slow_remnant_of_the_beam() -> None:
 
     def run(nm: Numerics) -> dict:
         return simulate_runs([{"point_id": "p", "params": params}], nm, 1)[0]
-
-    from analysis.transients import near_shorter_period
 
     unchecked = run(Numerics(continuation_check=False, n_long_transient=0))
     x = np.asarray(unchecked["poincare_state"])
@@ -478,14 +477,13 @@ def test_a_period_m_reading_near_period_1_is_found(amp: float, near: int | None)
     """A fixed point with a period-16 wobble of ``amp`` of its component scale (the floor,
     a tenth of the largest magnitude, as at the beam's remnant): period 16 to the classifier,
     and within twice the period test's tolerance of period 1 when the wobble's spread is."""
+    from analysis.poincare import component_scales
     from analysis.transients import near_shorter_period
 
     x = np.array([1.0, -0.5, 0.8]) + 0.1 * amp * _period_pattern(16)
     assert poincare_signature(x) == "periodic-16"
     assert near_shorter_period(x, 16) == near
     # period 1's residual is the wobble's spread over the scale (a tenth of max |x|: about amp)
-    from analysis.poincare import component_scales
-
     r1 = float(np.max(np.ptp(x, axis=0) / component_scales(x)))
     assert abs(r1 - amp) < 0.01 * amp
     assert near_shorter_period(x, 16, factor=r1 / 0.02 * 1.001) == 1
