@@ -26,7 +26,7 @@ from analysis.lyapunov.beam import (
     initial_offset,
     response_scale,
 )
-from analysis.lyapunov.block_statistics import NON_POSITIVE, BlockPlan
+from analysis.lyapunov.block_statistics import NON_POSITIVE, UNDETERMINED, BlockPlan
 from analysis.lyapunov.noise_floor import expo_noise_floor
 from analysis.pipeline.config import as_numerics
 from analysis.pipeline.stages import reference_run
@@ -89,7 +89,13 @@ def test_a_point_above_the_floor_runs_on_the_rk4_pair(grazing):
     ``GUARD e0`` and the quiet points' below, asserted) the grazing orbit runs on
     the RK4 pair from the start: its window, Stefanski and long-record values are those of
     ``beam_lle(free_method="rk4")`` to the bit; in one call with two quiet points it gives the
-    same, and the quiet points keep the ``expo`` pair, to the bit as alone without the guard."""
+    same, and the quiet points keep the ``expo`` pair, to the bit as alone without the guard.
+    The RK4 pair does not read chaos there: its 20-period record is not positive and its
+    window at or below the margin.  Whether those 20 periods also clear the margin depends on
+    the CPU's roundings at this grazing orbit (non-positive on znver3 and znver5, undetermined
+    on an AVX-512 rocketlake host: blocks -0.38, -0.28, +0.04, -0.07 per period, interval
+    [-0.48, +0.13]); the pipeline's own plan decides it non-positive
+    (tests/analysis/test_second_opinion.py)."""
     pp, start, scale = grazing
     kw = dict(n_periods=10, plan=SHORT, n_threads=2)
     expo_kw = dict(kw, free_method="expo", free_e0=E0, ladder_method="expo")
@@ -99,7 +105,7 @@ def test_a_point_above_the_floor_runs_on_the_rk4_pair(grazing):
     assert np.array_equal(got.statistics.blocks, ref.statistics.blocks)
     assert (got.benettin.value, got.stefanski.value) == (ref.benettin.value, ref.stefanski.value)
     T = 2 * math.pi / pp.omega
-    assert got.statistics.verdict == NON_POSITIVE and got.benettin.value * T <= SHORT.margin
+    assert got.statistics.verdict in (NON_POSITIVE, UNDETERMINED) and got.benettin.value * T <= SHORT.margin
     # the grazing orbit between two quiet three-mode points (below the slip onset) in one call:
     # each point's estimates are its own call's, to the bit, and the quiet ones the expo pair's
     quiet = [_settled(dict(GRAZING, Omega=om, f0_rel=0.8), 60) for om in (2.5, 4.0)]

@@ -14,6 +14,7 @@ import pytest
 
 from beamsim.simulate import prepare_point
 from beamsim.state_transfer import transfer_state
+from beamsim.two_layer import _basis
 
 POINT = {"Omega": 1.378, "f0_rel": 1.133, "mu_s": 0.45, "mu_k": 0.3}
 THETA = np.linspace(0.0, 0.4, 101)  # the default beam's opening angle is 0.4
@@ -46,7 +47,33 @@ def test_the_same_model_is_the_identity():
     np.testing.assert_allclose(transfer_state(x, m, m), x, rtol=0, atol=1e-13 * np.abs(x).max())
 
 
+def _span_floor(src, dst, coords):
+    """How closely ``dst``'s basis can hold the axial fields of ``src``'s coordinates
+    ``coords``, row by row ``(w, u1, u2)`` at ``THETA``.  The two bases are built from the same
+    arch modes, computed by separate root searches, so their raw axial functions ``[U_n; W_n';
+    hats]`` (``beamsim.two_layer._basis``) differ by ``dB`` (about 1e-13 of their size); the
+    axial coordinates are raw combinations ``c = axial_T d``, and where that basis is nearly
+    dependent (the four-mode one: scaled Gram eigenvalues 1.8e-12 of the largest) a state with
+    weight in every coordinate has ``|c|`` thousands of times the field.  ``sum_r |c_r| |dB_r|``
+    then bounds what the target can carry (to first order; the radial row shares its modes
+    exactly)."""
+    g = src.geom
+    b_src = _basis(src.modes, THETA, g.n_slip, g.static_shape)[3]
+    b_dst = _basis(dst.modes, THETA, dst.geom.n_slip, dst.geom.static_shape)[3]
+    n_src, n_dst = src.modes.n_modes, dst.modes.n_modes
+    extra = b_src.shape[0] - 2 * n_src          # the hat functions (and the static shape's)
+    rows = np.r_[np.arange(n_src), n_dst + np.arange(n_src), 2 * n_dst + np.arange(extra)]
+    d_b = np.abs(b_src - b_dst[rows])
+    m = src.axial_T.shape[1]
+    nw = src.n - 2 * m
+    layers = [np.abs(src.axial_T @ coords[off:off + m]) @ d_b for off in (nw, nw + m)]
+    return np.stack([np.zeros(THETA.size), *layers])
+
+
 def test_one_more_mode_carries_the_fields_and_energies_exactly():
+    """The fields are carried to the floor of :func:`_span_floor`: on an AVX-512 host
+    (rocketlake) the axial rows differ by up to 1.45e-9 of the field, 0.9995 of that floor at
+    its tightest, which is 5.4e-9 of the field there (the radial row 1.3e-14)."""
     m3, m4 = _model(n_modes=3), _model(n_modes=4)
     x = _state(m3)
     y = transfer_state(x, m3, m4)
@@ -55,7 +82,10 @@ def test_one_more_mode_carries_the_fields_and_energies_exactly():
     assert y.size == 2 * m4.n + 2 * m4.n_quad
     for a, b in ((q3, q4), (v3, v4)):
         f3, f4 = m3.displacements(a, THETA), m4.displacements(b, THETA)
-        assert np.abs(f4 - f3).max() <= 1e-9 * np.abs(f3).max()
+        scale = np.abs(f3).max()
+        floor = _span_floor(m3, m4, a)
+        assert floor.max() <= 1e-8 * scale      # round-off, not an approximation
+        assert np.all(np.abs(f4 - f3) <= floor + 1e-13 * scale)
     # each model's own matrices (assembled on its own grid)
     assert v4 @ m4.M @ v4 == pytest.approx(v3 @ m3.M @ v3, rel=1e-9)
     assert q4 @ m4.K @ q4 == pytest.approx(q3 @ m3.K @ q3, rel=1e-9)
