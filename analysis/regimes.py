@@ -98,6 +98,7 @@ __all__ = [
     "Thresholds",
     "classify",
     "is_settled",
+    "is_transient",
     "poincare_says_chaotic",
     "transient_reason",
     "continuation_reason",
@@ -321,6 +322,35 @@ def transient_reason(
     if not is_settled(x, scale_floor_rtol=scale_floor_rtol, **settle_options):
         return ("first and second half of the record differ (mean, spread or 5 % / 95 % "
                 "quantiles; is_settled)")
+    return _trend_reason(x, m_max=m_max, period_rtol=period_rtol, min_decay=min_decay,
+                         min_drift=min_drift, scale_floor_rtol=scale_floor_rtol)
+
+
+def is_transient(
+    poincare: ArrayLike,
+    *,
+    m_max: int = 32,
+    period_rtol: float = 0.02,
+    min_decay: float = 1.25,
+    min_drift: float = 0.05,
+    scale_floor_rtol: float = 0.1,
+    **settle_options,
+) -> bool:
+    """``transient_reason(poincare, ...) is not None`` (same arguments), for a caller that needs
+    only the verdict: the convergence and drift tests run first and the halves test
+    :func:`is_settled` only when they pass, because the halves test is the one that is dear on
+    a record it fails (every block permutation is drawn there), and the trend tests flag most
+    such records too (docs/performance.md, "The record tests' order").  The three tests are
+    independent, so the order changes the cost, not the verdict."""
+    x = validate_samples(poincare, name="poincare", min_samples=8)
+    trend = _trend_reason(x, m_max=m_max, period_rtol=period_rtol, min_decay=min_decay,
+                          min_drift=min_drift, scale_floor_rtol=scale_floor_rtol)
+    return trend is not None or not is_settled(x, scale_floor_rtol=scale_floor_rtol, **settle_options)
+
+
+def _trend_reason(x: np.ndarray, *, m_max: int, period_rtol: float, min_decay: float, min_drift: float,
+                  scale_floor_rtol: float) -> str | None:
+    """The convergence and drift tests of :func:`transient_reason` on validated samples ``x``."""
     s = component_scales(x, floor_rtol=scale_floor_rtol)
     conv = converging_period(x, s, m_max=m_max, min_decay=min_decay)
     if conv is not None:

@@ -151,7 +151,8 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
     ``n_record`` recorded, and the final state (restart point of the Lyapunov stage).
 
     Adaptive transient: a point whose record is still a transient
-    (:func:`analysis.regimes.transient_reason`) is continued from its end state by another
+    (:func:`analysis.regimes.transient_reason`, as :func:`~analysis.regimes.is_transient`
+    tests it) is continued from its end state by another
     ``n_transient`` periods and a fresh record of ``n_record`` periods (the old record joins the
     transient) while the transient stays within ``n_transient_max``; the record kept is the
     last one, ``n_transient_used`` says after how many periods it starts.
@@ -187,7 +188,7 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
     ``pattern_store``: ``expo``'s stick-pattern decompositions
     (:class:`beamsim.pattern_store.PatternStore`; default: one for this call, shared by its
     runs), a cost, not a result."""
-    from analysis.regimes import transient_reason
+    from analysis.regimes import is_transient
     from beamsim.pattern_store import PatternStore
     from beamsim.simulate import restart_params, simulate_batch
 
@@ -217,7 +218,7 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
         if watch.trouble[i]:
             return None
         slipping_below = r.stick_fraction < 1.0 and kinetic[i] < 1.0
-        transient = slipping_below or transient_reason(x) is not None
+        transient = slipping_below or is_transient(x)
         if transient and used[i] + nm.n_record + nm.n_transient <= cap[i]:
             return "transient"
         if not transient and not checked[i] and used[i] <= cap[i]:

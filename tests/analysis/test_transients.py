@@ -18,6 +18,8 @@ from analysis.regimes import (
     UNSETTLED,
     classify,
     continuation_reason,
+    is_settled,
+    is_transient,
     poincare_signature,
     transient_reason,
 )
@@ -100,6 +102,27 @@ def test_false_alarm_rate_on_chaotic_windows() -> None:
         windows = _chaotic_windows(N, 40, d)
         alarms = sum(transient_reason(w) is not None for w in windows)
         assert alarms <= 6, (d, alarms)
+
+
+def test_is_transient_is_transient_reasons_verdict() -> None:
+    """The pipeline's cheaper order (trend tests first) gives ``transient_reason``'s verdict on
+    records of every kind: settled ones, slow transients, stationary and drifting chaos, and
+    records that fail the halves test alone (a chaotic window settling onto its attractor,
+    which the trend tests let pass, so a skipped halves test would be seen) or a trend test
+    alone (a slow remnant the halves test passes)."""
+    i = np.arange(129)[:, None]
+    settling = [w + np.ptp(w, axis=0) * np.exp(-i / 40.0) for w in _chaotic_windows(129, 10)]
+    records = ([gen() for gen, _, _ in LABELLED.values()] + list(SLOW.values())
+               + _chaotic_windows(N, 10, 40) + settling)
+    halves_only = trend_only = 0
+    for x in records:
+        why = transient_reason(x)
+        assert is_transient(x) == (why is not None), why
+        halves = why is not None and why.startswith("first and second half")
+        halves_only += halves and transient_reason(x, rtol=np.inf) is None   # the trend tests pass
+        trend_only += why is not None and not halves
+    assert not all(is_settled(x) for x in settling)
+    assert halves_only >= 1 and trend_only >= 1, (halves_only, trend_only)
 
 
 def test_a_decay_below_the_period_tolerance_is_settled() -> None:
