@@ -151,8 +151,7 @@ def simulate_runs(points: list[dict], nm: Numerics, threads: int,
     ``n_record`` recorded, and the final state (restart point of the Lyapunov stage).
 
     Adaptive transient: a point whose record is still a transient
-    (:func:`analysis.regimes.transient_reason`, as :func:`~analysis.regimes.is_transient`
-    tests it) is continued from its end state by another
+    (:func:`analysis.regimes.is_transient`) is continued from its end state by another
     ``n_transient`` periods and a fresh record of ``n_record`` periods (the old record joins the
     transient) while the transient stays within ``n_transient_max``; the record kept is the
     last one, ``n_transient_used`` says after how many periods it starts.

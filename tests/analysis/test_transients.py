@@ -364,9 +364,9 @@ def test_a_record_kept_after_a_further_transient_is_checked_again(monkeypatch) -
     script = _ScriptedRuns(monkeypatch)
 
     def scripted_transient(x):  # the first check's record (run 2) is still a transient
-        return "scripted transient" if script.run_of(x) == 2 else None
+        return script.run_of(x) == 2
 
-    monkeypatch.setattr(analysis.regimes, "transient_reason", scripted_transient)
+    monkeypatch.setattr(analysis.regimes, "is_transient", scripted_transient)
     monkeypatch.setattr(analysis.regimes, "continuation_reason", lambda a, b, **kw: None)
     nm = Numerics(n_transient=3, n_record=5, n_transient_max=100, n_long_transient=0)
     params = {"n_modes": 1, "law": "stick-slip", "mu_s": 0.3, "mu_k": 0.3, "f0_rel": 2.0, "Omega": 1.5}
@@ -392,8 +392,7 @@ def test_the_long_run_follows_an_aperiodic_or_unsettled_record_once(monkeypatch)
 
     script = _ScriptedRuns(monkeypatch)
     transient_runs: set[int] = set()
-    monkeypatch.setattr(analysis.regimes, "transient_reason",
-                        lambda x: "scripted transient" if script.run_of(x) in transient_runs else None)
+    monkeypatch.setattr(analysis.regimes, "is_transient", lambda x: script.run_of(x) in transient_runs)
     monkeypatch.setattr(analysis.regimes, "continuation_reason", lambda a, b, **kw: None)
     monkeypatch.setattr(analysis.regimes, "poincare_signature", lambda x: "aperiodic")
     nm = Numerics(n_transient=3, n_record=128, n_transient_max=100, n_long_transient=40)
