@@ -305,6 +305,7 @@ def transient_reason(
     min_decay: float = 1.25,
     min_drift: float = 0.05,
     scale_floor_rtol: float = 0.1,
+    trends_first: bool = False,
     **settle_options,
 ) -> str | None:
     """Why the record is still a transient, or ``None`` when it looks settled.
@@ -316,36 +317,31 @@ def transient_reason(
     ``period_rtol`` of the spread, i.e. the remnant is large enough to change the period test);
     a linear drift of a component by more than ``min_drift`` of its spread
     (:func:`analysis.transients.drifting_component`, on the record and, when a periodic
-    pattern dominates it, on the residual after removing the pattern).
+    pattern dominates it, on the residual after removing the pattern).  The first test that
+    fails gives the reason; ``trends_first`` runs the halves test last (the same verdict, the
+    reason of another test where several fail: :func:`is_transient`).
     """
     x = validate_samples(poincare, name="poincare", min_samples=8)
+    if trends_first and (why := _trend_reason(x, m_max=m_max, period_rtol=period_rtol, min_decay=min_decay,
+                                              min_drift=min_drift, scale_floor_rtol=scale_floor_rtol)):
+        return why
     if not is_settled(x, scale_floor_rtol=scale_floor_rtol, **settle_options):
         return ("first and second half of the record differ (mean, spread or 5 % / 95 % "
                 "quantiles; is_settled)")
+    if trends_first:
+        return None
     return _trend_reason(x, m_max=m_max, period_rtol=period_rtol, min_decay=min_decay,
                          min_drift=min_drift, scale_floor_rtol=scale_floor_rtol)
 
 
-def is_transient(
-    poincare: ArrayLike,
-    *,
-    m_max: int = 32,
-    period_rtol: float = 0.02,
-    min_decay: float = 1.25,
-    min_drift: float = 0.05,
-    scale_floor_rtol: float = 0.1,
-    **settle_options,
-) -> bool:
-    """``transient_reason(poincare, ...) is not None`` (same arguments), for a caller that needs
-    only the verdict: the convergence and drift tests run first and the halves test
-    :func:`is_settled` only when they pass, because the halves test is the one that is dear on
-    a record it fails (every block permutation is drawn there), and the trend tests flag most
-    such records too (docs/performance.md, "The record tests' order").  The three tests are
-    independent, so the order changes the cost, not the verdict."""
-    x = validate_samples(poincare, name="poincare", min_samples=8)
-    trend = _trend_reason(x, m_max=m_max, period_rtol=period_rtol, min_decay=min_decay,
-                          min_drift=min_drift, scale_floor_rtol=scale_floor_rtol)
-    return trend is not None or not is_settled(x, scale_floor_rtol=scale_floor_rtol, **settle_options)
+def is_transient(poincare: ArrayLike, **options) -> bool:
+    """``transient_reason(poincare, **options) is not None``, for a caller that needs only the
+    verdict: the convergence and drift tests run first and the halves test :func:`is_settled`
+    only when they pass, because the halves test is the one that is dear on a record it fails
+    (every block permutation is drawn there), and the trend tests flag most such records too
+    (docs/performance.md, "The record tests' order").  The three tests are independent, so the
+    order changes the cost, not the verdict."""
+    return transient_reason(poincare, trends_first=True, **options) is not None
 
 
 def _trend_reason(x: np.ndarray, *, m_max: int, period_rtol: float, min_decay: float, min_drift: float,
