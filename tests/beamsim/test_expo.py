@@ -196,7 +196,7 @@ def _stuck_beam():
     mass-normalised coordinates ``y = L^T q`` (``M = L L^T``: the first-order matrix holds
     ``L^-1 K_P L^-T`` and ``L^-1 C L^-T``, no ``M^-1``).  The start is the two slowest stuck
     modes about the equilibrium, so RK4's step error is far below the rounding at the step
-    factors used.  Returns the point, the start state and the exact state after one period,
+    factors used.  Returns the point with that start state, the exact state after one period,
     and that state's own rounding floor: the largest change of it, over the largest ``|(q,
     v)|``, when ``M``, ``K_P`` and ``C`` are perturbed by one rounding each (relative
     ``+-eps``, six seeded draws; cond(M) ~ 1.6e7, cond(K_P) ~ 1.4e9 at three modes).  A

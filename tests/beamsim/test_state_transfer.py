@@ -55,8 +55,9 @@ def _span_floor(src, dst, coords):
     axial coordinates are raw combinations ``c = axial_T d``, and where that basis is nearly
     dependent (the four-mode one: scaled Gram eigenvalues 1.8e-12 of the largest) a state with
     weight in every coordinate has ``|c|`` thousands of times the field.  ``sum_r |c_r| |dB_r|``
-    then bounds what the target can carry (to first order; the radial row shares its modes
-    exactly)."""
+    then bounds what the target can carry (to first order).  The radial row has no such
+    amplification (its coordinates are the arch modes', the same to about 1e-13 in both bases):
+    its floor is 0 here, and the caller's allowance of 1e-13 of the field covers it."""
     g = src.geom
     b_src = _basis(src.modes, THETA, g.n_slip, g.static_shape)[3]
     b_dst = _basis(dst.modes, THETA, dst.geom.n_slip, dst.geom.static_shape)[3]
