@@ -322,16 +322,21 @@ def transient_reason(
     reason of another test where several fail: :func:`is_transient`).
     """
     x = validate_samples(poincare, name="poincare", min_samples=8)
-    if trends_first and (why := _trend_reason(x, m_max=m_max, period_rtol=period_rtol, min_decay=min_decay,
-                                              min_drift=min_drift, scale_floor_rtol=scale_floor_rtol)):
-        return why
-    if not is_settled(x, scale_floor_rtol=scale_floor_rtol, **settle_options):
+
+    def halves() -> str | None:
+        if is_settled(x, scale_floor_rtol=scale_floor_rtol, **settle_options):
+            return None
         return ("first and second half of the record differ (mean, spread or 5 % / 95 % "
                 "quantiles; is_settled)")
-    if trends_first:
-        return None
-    return _trend_reason(x, m_max=m_max, period_rtol=period_rtol, min_decay=min_decay,
-                         min_drift=min_drift, scale_floor_rtol=scale_floor_rtol)
+
+    def trends() -> str | None:
+        return _trend_reason(x, m_max=m_max, period_rtol=period_rtol, min_decay=min_decay,
+                             min_drift=min_drift, scale_floor_rtol=scale_floor_rtol)
+
+    for test in (trends, halves) if trends_first else (halves, trends):
+        if (why := test()) is not None:
+            return why
+    return None
 
 
 def is_transient(poincare: ArrayLike, **options) -> bool:

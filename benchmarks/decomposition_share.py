@@ -15,27 +15,23 @@ Results: docs/performance.md, "Where the time goes".
 
 from __future__ import annotations
 
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
 from beamsim.kernels.real_eig import real_eig
 from beamsim.pattern_store import PatternStore
-from beamsim.simulate import simulate_batch
+from beamsim.simulate import prepare_point, simulate_batch
 
-POINT = dict(n_modes=3, k_t=10.0, law="stick-slip", mu_s=0.3, mu_k=0.3, p=1e-4, f0_rel=3.0, Omega=1.5,
-             interface_damping=0.5)
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+# benchmarks/simulate.py: its start-up case and its best-of timing
+from simulate import CASES, timed  # noqa: E402
+
+POINT = CASES["start-up"]["point"]
 RUN = dict(n_transient=2, n_record=4, method="expo", steps_per_period=16, n_threads=1)
 ROUNDS = 7
-
-
-def best(fn, repeat: int) -> float:
-    times = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return min(times)
 
 
 def main() -> None:
@@ -56,18 +52,11 @@ def main() -> None:
           f"{1e3 * min(warm):.1f} ms with {again.n_patterns} (same trajectory: {same}); "
           f"decompositions {100 * share:.0f} %, "
           f"{1e3 * (min(cold) - min(warm)) / max(first.n_patterns, 1):.2f} ms each")
-    n = 2 * prepare_size()
+    n = 2 * prepare_point(**POINT).model.n  # the first-order matrix of the start-up model
     a = np.random.default_rng(0).standard_normal((n, n))
     real_eig(a)
-    print(f"random {n} x {n}: real_eig (dgeev) {1e3 * best(lambda: real_eig(a), 200):.3f} ms, "
-          f"np.linalg.eig + inverse {1e3 * best(lambda: np.linalg.inv(np.linalg.eig(a)[1]), 200):.3f} ms")
-
-
-def prepare_size() -> int:
-    """Generalised coordinates of the start-up model (the first-order matrix is twice that)."""
-    from beamsim.simulate import prepare_point
-
-    return prepare_point(**POINT).model.n
+    print(f"random {n} x {n}: real_eig (dgeev) {1e3 * timed(lambda: real_eig(a), 200)[1]:.3f} ms, "
+          f"np.linalg.eig + inverse {1e3 * timed(lambda: np.linalg.inv(np.linalg.eig(a)[1]), 200)[1]:.3f} ms")
 
 
 if __name__ == "__main__":
