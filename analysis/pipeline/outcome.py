@@ -1,13 +1,16 @@
 """The check after a run that Snakemake calls successful: every file the command asked for exists.
 
-Snakemake 9.15 can end a run with exit code 0 without the requested files: with
-``--rerun-incomplete`` (``profiles/default/``), an existing output that a killed run left
-marked incomplete, and that later jobs read through ``ancient()`` -- the kernels' stamps
-``results/kernels/<stage>.done`` --, is rerun alone and the jobs downstream of it are dropped
-from the DAG (a minimal Snakefile shows it: ``tests/workflow/test_interrupted_runs.py``). The
-workflow's ``onsuccess`` calls :func:`check_targets_made`, so such a run fails in one line that
-says what to do (run the same command again: the stamp is complete then) instead of looking
-finished (docs/reliability.md, "Interrupted runs resume to the same table").
+Snakemake 9.15 can end a run with exit code 0 without the requested files: an existing output
+that later jobs read through ``ancient()`` -- the kernels' stamps ``results/kernels/<stage>.done``
+-- and that is rerun is rerun alone, and the jobs downstream of it are dropped from the DAG.
+Two causes rerun a stamp: a killed run left it marked incomplete (``--rerun-incomplete``,
+``profiles/default/``; a minimal Snakefile shows the drop: ``tests/workflow/test_interrupted_runs.py``),
+or its params changed because the grids need kernels of another integrator (the plan keeps
+the Lyapunov stage's params the same for every stick-slip grid, :mod:`analysis.pipeline.plan`;
+a config whose grids all use another law still changes them). The workflow's ``onsuccess``
+calls :func:`check_targets_made`, so such a run fails in one line that says what to do (run
+the same command again: the stamp is up to date then) instead of looking finished
+(docs/reliability.md, "Interrupted runs resume to the same table").
 """
 
 from __future__ import annotations
@@ -26,5 +29,6 @@ def check_targets_made(targets: Iterable[str]) -> None:
     if missing:
         raise WorkflowError(
             f"the run ended without {', '.join(missing[:3])}{' ...' if len(missing) > 3 else ''}: "
-            f"Snakemake dropped the jobs that make it (after a killed run: a kernel stamp it left "
-            f"incomplete was rebuilt alone, docs/reliability.md); run the same command again")
+            f"Snakemake dropped the jobs that make it (a kernel stamp was rebuilt alone: after a "
+            f"killed run, or for grids that need other kernels, docs/reliability.md); run the same "
+            f"command again")

@@ -50,7 +50,8 @@ class Plan:
     points : grid name -> its points in axis order; chunks : grid name -> its chunks.
     simulation_methods : integrators of the reference runs (with ``expo``, RK4 too: the
     fallback of a run that meets ``expo``'s Zeno guard).
-    lyapunov_methods : integrators of the Lyapunov stage's free copies.
+    lyapunov_methods : integrators of the Lyapunov stage's free copies, with RK4 always (its
+    pair is compiled first in any case: the fallback and the second opinion).
     rigid_stick : whether a grid or a line has rigid-stick points (whose kernels are their own,
     so compile_kernels builds them too).
     convergence : the convergence runs' settings (sample size, seed, refinements).
@@ -119,7 +120,12 @@ def build_plan(config: dict, schemas: Path) -> Plan:
     # kernel compiled beforehand too, so that no chunk job compiles one (docs/reliability.md)
     methods = sorted(methods | ({"rk4"} if "expo" in methods else set()))
     every = [p for group in (points, *lines.values()) for pts in group.values() for p in pts]
-    free_methods = sorted({free_copy_integrator(numerics.lyapunov.method, p.params) for p in every})
+    # the RK4 pair with them always: compile_kernels builds it first whatever the grids (the
+    # fallback, the second opinion), so a grid that adds RK4 free copies (mu_s = mu_k) leaves the
+    # Lyapunov stamp's params as they were; changed params rebuild the stamp, and Snakemake then
+    # drops the jobs that read it through ancient() (analysis.pipeline.outcome)
+    free_methods = sorted({free_copy_integrator(numerics.lyapunov.method, p.params) for p in every}
+                          | {"rk4"})
     rigid = any(p.params.get("law") == "rigid-stick" for p in every)
     validate_lyapunov_laws(points, grid_file)
     validate_integrators(points, numerics, grid_file)

@@ -258,10 +258,34 @@ def test_rigid_stick_plans_with_rk4(tmp_path):
     plan = build_plan(cfg, SCHEMA.parent)
     assert not plan.rigid_stick
     # the shipped (stick-slip) config: expo reference runs (RK4 compiled too, for a run that
-    # meets expo's Zeno guard) and expo free copies; rk4: RK4 pairs
-    assert plan.simulation_methods == ["expo", "rk4"] and plan.lyapunov_methods == ["expo"]
+    # meets expo's Zeno guard) and expo free copies (the RK4 pair with them: the fallback and
+    # the second opinion); rk4: RK4 pairs
+    assert plan.simulation_methods == ["expo", "rk4"] and plan.lyapunov_methods == ["expo", "rk4"]
     cfg["numerics"]["lyapunov"]["method"] = "rk4"
     assert build_plan(cfg, SCHEMA.parent).lyapunov_methods == ["rk4"]
+
+
+def test_a_grid_with_rk4_free_copies_keeps_the_kernel_stamps_params():
+    """The kernel stamps' params (what ``compile_kernels`` builds) are the same for the shipped
+    grid file and for config/grid_chaos.yaml, whose ``mu_s = mu_k`` row runs RK4 free copies:
+    changed params rebuild a stamp, and Snakemake 9.15 then drops every job that reads it
+    through ``ancient()`` (found running the chaos grid after the default one: the run ended
+    after recompiling, asking to be run again).  The RK4 pair is compiled first in any case."""
+    from analysis.pipeline.plan import build_plan
+    from analysis.pipeline.stages import free_copy_integrator
+
+    plans = []
+    for grid_file in ("grid.yaml", "grid_chaos.yaml"):
+        cfg = _config()
+        cfg["grid_file"] = str(ROOT / "config" / grid_file)
+        plans.append(build_plan(cfg, SCHEMA.parent))
+    chaos = plans[1]
+    frees = {free_copy for pts in chaos.points.values() for free_copy in
+             (free_copy_integrator(chaos.numerics.lyapunov.method, p.params) for p in pts)}
+    assert frees == {"expo", "rk4"}  # the chaos grid does need both
+    for plan in plans:
+        assert plan.simulation_methods == ["expo", "rk4"] and plan.lyapunov_methods == ["expo", "rk4"]
+        assert not plan.rigid_stick
 
 
 def test_equal_coefficients_keep_the_rk4_free_copy(tmp_path):
