@@ -8,8 +8,9 @@ per element, and the median stick and slip phase (time between an element's cons
 switches, in forcing periods) over the recorded periods.  The stick statistics of the kernel
 are not tallied (not needed here); the trajectory is the kernel's.
 
-    .venv/bin/python benchmarks/switch_log.py                     # the default cells
+    .venv/bin/python benchmarks/switch_log.py                     # the default grid's model
     .venv/bin/python benchmarks/switch_log.py --set k_t=30        # another stick stiffness
+    .venv/bin/python benchmarks/switch_log.py --set interface_viscosity=0   # no dashpot
 
 Results: docs/performance.md, "Probes on the rocketlake host" ("What the switches are").
 """
@@ -17,8 +18,10 @@ Results: docs/performance.md, "Probes on the rocketlake host" ("What the switche
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 import numpy as np
+import yaml
 from numba import njit
 
 import beamsim.simulate as bs
@@ -28,7 +31,15 @@ from beamsim.pattern_store import cache_slots, model_keys
 
 #: default-grid cells (``Omega``, ``f0_rel``): two slipping periodic cells, a locked one
 CELLS = ((4.451505, 1.301893), (1.37829, 1.214404), (2.246431, 1.132794))
-BASE = dict(n_modes=3, mu_s=0.45, mu_k=0.3, k_t=10.0, law="stick-slip", p=1e-4)
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def default_model() -> dict:
+    """The default grid's model: ``config/config.yaml``'s ``model`` with the grid's ``fixed``
+    values (the interface dashpot among them: a point without it has none)."""
+    model = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())["model"]
+    grid = yaml.safe_load((ROOT / "config" / "grid.yaml").read_text())["grids"]["default"]
+    return model | grid.get("fixed", {})
 
 
 @njit
@@ -120,8 +131,9 @@ def main() -> None:
     ap.add_argument("--set", nargs="*", default=[], help="point parameters KEY=VALUE (floats)")
     args = ap.parse_args()
     over = {k: float(v) for k, v in (kv.split("=", 1) for kv in args.set)}
+    base = default_model()
     for omega, f0_rel in CELLS:
-        point = BASE | {"Omega": omega, "f0_rel": f0_rel} | over
+        point = base | {"Omega": omega, "f0_rel": f0_rel} | over
         pp, log, zeno = switch_log(point, args.transient, args.record)
         s = summary(pp, log, args.transient, args.record)
         print(f"Omega {omega:.3f}, f0_rel {f0_rel:.3f} {over or ''}: {s['per_period']:.0f} switches per "
