@@ -18,6 +18,7 @@ Results: docs/performance.md, "Probes on the rocketlake host" ("What the switche
 from __future__ import annotations
 
 import argparse
+import functools
 from pathlib import Path
 
 import numpy as np
@@ -34,12 +35,26 @@ CELLS = ((4.451505, 1.301893), (1.37829, 1.214404), (2.246431, 1.132794))
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def default_model() -> dict:
-    """The default grid's model: ``config/config.yaml``'s ``model`` with the grid's ``fixed``
-    values (the interface dashpot among them: a point without it has none)."""
-    model = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())["model"]
+@functools.cache
+def _grid_points() -> tuple:
+    """The default grid's points as the pipeline makes them
+    (:func:`analysis.pipeline.grid.expand_grid`)."""
+    from analysis.pipeline.config import as_numerics
+    from analysis.pipeline.grid import expand_grid
+
+    config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
     grid = yaml.safe_load((ROOT / "config" / "grid.yaml").read_text())["grids"]["default"]
-    return model | grid.get("fixed", {})
+    return tuple(expand_grid("default", grid, config["model"], as_numerics(config["numerics"])))
+
+
+def grid_point(omega: float, f0_rel: float) -> dict:
+    """The parameters of the default grid's point nearest (``Omega``, ``f0_rel``):
+    ``config/config.yaml``'s model with the grid's fixed values, the interface dashpot among
+    them (a point without it has none)."""
+    def distance(p) -> float:
+        return abs(p.params["Omega"] - omega) + abs(p.params["f0_rel"] - f0_rel)
+
+    return dict(min(_grid_points(), key=distance).params)
 
 
 @njit
@@ -131,9 +146,8 @@ def main() -> None:
     ap.add_argument("--set", nargs="*", default=[], help="point parameters KEY=VALUE (floats)")
     args = ap.parse_args()
     over = {k: float(v) for k, v in (kv.split("=", 1) for kv in args.set)}
-    base = default_model()
     for omega, f0_rel in CELLS:
-        point = base | {"Omega": omega, "f0_rel": f0_rel} | over
+        point = grid_point(omega, f0_rel) | over
         pp, log, zeno = switch_log(point, args.transient, args.record)
         s = summary(pp, log, args.transient, args.record)
         print(f"Omega {omega:.3f}, f0_rel {f0_rel:.3f} {over or ''}: {s['per_period']:.0f} switches per "
